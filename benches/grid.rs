@@ -1,0 +1,166 @@
+//! Grid benchmark: prints figures, asserts nothing (targets are read by
+//! people, not by the test suite). Run with `cargo bench --bench grid`.
+//!
+//! For `pig.vdb` (from `VDBPHOTON_REAL_DATA`, default `../shared/data`) and a
+//! generated 512^3 cloud (`BENCH_CLOUD_RES` to change it):
+//! - load: OpenVDB alone (open + readGrid) vs into the Rust grid (the same
+//!   read plus the bulk copy), median of 5; target ratio ≤ 1.5;
+//! - memory: `Grid::memory_bytes()` vs OpenVDB's `memUsage()`; target ≤ 1.2;
+//! - lookups: trilinear samples per second on one core at random points in
+//!   the active region; target ≥ 50 M/s.
+
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vdbphoton::vdb::{reference, write_vdb, AnyGrid, VdbFile};
+use vdbphoton::{generate, grid::Grid};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    v[v.len() / 2]
+}
+
+struct Rng(u64);
+impl Rng {
+    fn f32(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+fn lookups_per_second(g: &Grid<f32>) -> (f64, usize) {
+    let (lo, hi) = g.active_bounds().unwrap();
+    let size = (hi - lo + 1).as_vec3();
+    let mut rng = Rng(0x2545F4914F6CDD1D);
+    let n = 4_000_000;
+    let mut pts = Vec::with_capacity(n);
+    while pts.len() < n {
+        let p = lo.as_vec3() + Vec3::new(rng.f32(), rng.f32(), rng.f32()) * size;
+        if g.is_active(p.floor().as_ivec3()) {
+            pts.push(p);
+        }
+    }
+    let mut best = 0.0f64;
+    let mut sink = 0.0f32;
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        for p in &pts {
+            sink += g.sample_index(*p);
+        }
+        best = best.max(n as f64 / t0.elapsed().as_secs_f64());
+    }
+    std::hint::black_box(sink);
+    // Context: the same number of plain random reads from a flat array as
+    // large as the grid's values (no index, no interpolation).
+    let len = (g.brick_count() * 512).max(1);
+    let flat: Vec<f32> = (0..len).map(|i| i as f32).collect();
+    let idx: Vec<u32> = pts
+        .iter()
+        .map(|p| (p.x.to_bits().wrapping_mul(2654435761) ^ p.z.to_bits()) % len as u32)
+        .collect();
+    let t0 = Instant::now();
+    let mut s = 0.0f32;
+    for &i in &idx {
+        s += flat[i as usize];
+    }
+    std::hint::black_box(s);
+    let gather = n as f64 / t0.elapsed().as_secs_f64();
+    // And coherent access: the same points sorted along x (like a ray march).
+    let mut sorted = pts.clone();
+    sorted.sort_by(|a, b| {
+        (a.z as i32, a.y as i32, a.x)
+            .partial_cmp(&(b.z as i32, b.y as i32, b.x))
+            .unwrap()
+    });
+    let t0 = Instant::now();
+    for p in &sorted {
+        sink += g.sample_index(*p);
+    }
+    std::hint::black_box(sink);
+    let coherent = n as f64 / t0.elapsed().as_secs_f64();
+    println!(
+        "         (context: {:.1} M/s plain random reads from a flat array of the same size; {:.1} M/s trilinear samples at the same points sorted)",
+        gather / 1e6,
+        coherent / 1e6
+    );
+    (best, n)
+}
+
+fn bench_file(path: &Path, grid: &str) {
+    println!("\n== {} (grid '{grid}')", path.display());
+    let mut ovdb = Vec::new();
+    let mut mem_ovdb = 0;
+    for _ in 0..5 {
+        let (s, m, _) = reference::openvdb_read(path, grid).unwrap();
+        ovdb.push(s);
+        mem_ovdb = m;
+    }
+    let mut ours = Vec::new();
+    let mut g = None;
+    for _ in 0..5 {
+        let t0 = Instant::now();
+        let grid = VdbFile::open(path).unwrap().read_float(grid).unwrap();
+        ours.push(t0.elapsed().as_secs_f64());
+        g = Some(grid);
+    }
+    let g = g.unwrap();
+    let (to, tr) = (median(ovdb), median(ours));
+    let mem = g.memory_bytes() as f64;
+    println!(
+        "active voxels {}   bricks {}   tiles {}",
+        g.active_voxel_count(),
+        g.brick_count(),
+        g.tiles().len()
+    );
+    println!(
+        "load:   OpenVDB {:8.2} ms   Rust grid {:8.2} ms   ratio {:.2}  (target <= 1.5)",
+        to * 1e3,
+        tr * 1e3,
+        tr / to
+    );
+    println!(
+        "memory: OpenVDB {:8.2} MiB  Rust grid {:8.2} MiB  ratio {:.2}  (target <= 1.2)",
+        mem_ovdb as f64 / 1048576.0,
+        mem / 1048576.0,
+        mem / mem_ovdb as f64
+    );
+    let (rate, n) = lookups_per_second(&g);
+    println!(
+        "lookups: {:.1} M trilinear samples/s on one core ({n} random points in the active region; target >= 50)",
+        rate / 1e6
+    );
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return;
+    }
+    let data = std::env::var_os("VDBPHOTON_REAL_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("../shared/data"));
+    let pig = data.join("external/pig.vdb");
+    if pig.is_file() {
+        bench_file(&pig, "density");
+    } else {
+        println!("({} not found: skipped)", pig.display());
+    }
+    let res: u32 = std::env::var("BENCH_CLOUD_RES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(512);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let cloud = dir.join(format!("bench-cloud{res}.vdb"));
+    if !cloud.is_file() {
+        let t0 = Instant::now();
+        let g = generate::cloud(res, 1).unwrap();
+        write_vdb(&cloud, &[AnyGrid::Float(g)]).unwrap();
+        println!(
+            "generated {} in {:.1} s",
+            cloud.display(),
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    bench_file(&cloud, "density");
+}

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# vdbphoton quick start: installs what is missing on Debian 12 (apt-get),
+# builds the release binary, and runs the main job on a bundled default.
+# Usage: bash scripts/setup.sh        (from the repository root)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES="libopenvdb-dev libboost-dev libtbb-dev libimath-dev g++ pkg-config"
+missing=""
+for p in $PACKAGES; do
+    dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"
+done
+if [ -n "$missing" ]; then
+    echo "== installing Debian packages:$missing"
+    SUDO=""
+    [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+    $SUDO apt-get update
+    $SUDO apt-get install -y $missing
+fi
+if ! command -v cargo >/dev/null 2>&1; then
+    echo "error: cargo not found; install Rust (https://rustup.rs) and run this again" >&2
+    exit 1
+fi
+
+echo "== building vdbphoton (release)"
+cargo build --release --locked
+
+mkdir -p out
+echo "== generating the default cloud and inspecting it"
+./target/release/vdbphoton generate cloud out/cloud.vdb --res 128 --seed 1
+./target/release/vdbphoton info out/cloud.vdb

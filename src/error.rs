@@ -1,0 +1,54 @@
+//! The crate's error type. Every message is one line that names the file (and
+//! the grid, where there is one) and says what is wrong in a user's words.
+
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The operating system refused: missing file, permissions, a directory.
+    #[error("cannot read '{}': {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// Something is wrong with a file as a whole.
+    #[error("'{}': {message}", path.display())]
+    File { path: PathBuf, message: String },
+    /// Something is wrong with one grid of a file.
+    #[error("'{}', grid '{grid}': {message}", path.display())]
+    Grid {
+        path: PathBuf,
+        grid: String,
+        message: String,
+    },
+    /// A command-line argument or option out of range.
+    #[error("{0}")]
+    Argument(String),
+    /// Data built in memory that does not make a valid grid.
+    #[error("invalid grid: {0}")]
+    InvalidGrid(String),
+}
+
+impl Error {
+    pub fn file(path: &Path, message: impl Into<String>) -> Self {
+        Error::File {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+    pub fn grid(path: &Path, grid: &str, message: impl Into<String>) -> Self {
+        Error::Grid {
+            path: path.to_path_buf(),
+            grid: grid.to_string(),
+            message: message.into(),
+        }
+    }
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,758 @@
+//! A sparse voxel grid of our own, built for the renderer's hot paths.
+//!
+//! Layout (see ARCHITECTURE.md for why):
+//! - voxel values live in 8^3 *bricks* (OpenVDB's leaf size and voxel order,
+//!   `offset = (x&7)<<6 | (y&7)<<3 | (z&7)`), so a whole leaf copies from
+//!   OpenVDB with one `memcpy`;
+//! - a dense *top index* covers the grid's extent in 128^3-voxel regions; each
+//!   entry is a constant (background, or a 128^3/4096^3 tile) or a *node* of
+//!   16^3 slots; a slot is a constant (background or an 8^3 tile) or a brick.
+//!
+//! A lookup is two array reads and a bounds check, with no hashing, so the
+//! per-sample cost is O(1). Per-brick min/max ranges serve the majorants of
+//! the renderer (`range_in_box`).
+//!
+//! Sampling is trilinear between voxel centres, exactly as OpenVDB's
+//! `tools::BoxSampler`: index (i,j,k) is a voxel centre and world =
+//! `world_from_index` · index.
+
+mod value;
+
+pub use value::GridValue;
+
+use crate::error::{Error, Result};
+use glam::{DAffine3, DVec3, IVec3, Vec3};
+use rayon::prelude::*;
+
+/// Voxels along an edge of a brick (OpenVDB's leaf node).
+pub const BRICK_DIM: i32 = 8;
+/// Voxels in a brick.
+pub const BRICK_VOXELS: usize = 512;
+const LOG2_NODE_VOXELS: i32 = 7; // a node covers 128^3 voxels = 16^3 bricks
+const NODE_SLOTS: usize = 4096;
+/// Slot and top-index codes with this bit set are constants.
+const CONST_BIT: u32 = 1 << 31;
+/// `constants[0]` is the background, so "empty" is constant 0.
+const EMPTY: u32 = CONST_BIT;
+/// The largest top index we allocate (entries of 4 bytes): 2^24 regions of
+/// 128^3 voxels, i.e. an extent of about 32768^3 voxels.
+const MAX_TOP_ENTRIES: i64 = 1 << 24;
+
+/// A constant region without voxels: OpenVDB's tiles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tile<T> {
+    pub origin: IVec3,
+    /// 1: 8^3 voxels, 2: 128^3, 3: 4096^3 (OpenVDB's tree levels).
+    pub level: u8,
+    pub value: T,
+    pub active: bool,
+}
+
+impl<T> Tile<T> {
+    /// Edge length in voxels of a tile at `level`.
+    pub fn dim_of(level: u8) -> i32 {
+        match level {
+            1 => 8,
+            2 => 128,
+            _ => 4096,
+        }
+    }
+    pub fn dim(&self) -> i32 {
+        Self::dim_of(self.level)
+    }
+}
+
+/// The pieces a grid is made of, as they come from a file or a generator.
+#[derive(Debug, Clone)]
+pub struct GridParts<T> {
+    pub name: String,
+    /// OpenVDB's grid class: `fog volume`, `level set`, `staggered`, `unknown`.
+    pub class: String,
+    pub background: T,
+    pub world_from_index: DAffine3,
+    /// Origins (multiples of 8) of the bricks.
+    pub brick_origins: Vec<IVec3>,
+    /// 512 values per brick, in OpenVDB's order.
+    pub values: Vec<T>,
+    /// Active masks, 8 words per brick, bit `x<<6|y<<3|z`.
+    pub masks: Vec<[u64; 8]>,
+    pub tiles: Vec<Tile<T>>,
+}
+
+impl<T: GridValue> GridParts<T> {
+    pub fn new(name: &str, background: T, world_from_index: DAffine3) -> Self {
+        Self {
+            name: name.to_string(),
+            class: "fog volume".to_string(),
+            background,
+            world_from_index,
+            brick_origins: Vec::new(),
+            values: Vec::new(),
+            masks: Vec::new(),
+            tiles: Vec::new(),
+        }
+    }
+
+    /// Collapses bricks whose 512 values are equal and uniformly active into
+    /// 8^3 tiles, drops inactive background bricks, and merges complete
+    /// 16^3 blocks of equal active 8^3 tiles into 128^3 tiles (as
+    /// `openvdb::tools::prune` does for constant leaves).
+    pub fn prune(&mut self) {
+        let mut keep = Vec::with_capacity(self.brick_origins.len());
+        let mut new_tiles = Vec::new();
+        for b in 0..self.brick_origins.len() {
+            let vals = &self.values[b * BRICK_VOXELS..(b + 1) * BRICK_VOXELS];
+            let v0 = vals[0];
+            let uniform = vals.iter().all(|&v| v == v0);
+            let mask = self.masks[b];
+            let all_on = mask.iter().all(|&w| w == u64::MAX);
+            let all_off = mask.iter().all(|&w| w == 0);
+            if uniform && all_on {
+                new_tiles.push(Tile {
+                    origin: self.brick_origins[b],
+                    level: 1,
+                    value: v0,
+                    active: true,
+                });
+            } else if uniform && all_off && v0 == self.background {
+                // Nothing: this brick is background.
+            } else {
+                keep.push(b);
+            }
+        }
+        if keep.len() != self.brick_origins.len() {
+            let mut values = Vec::with_capacity(keep.len() * BRICK_VOXELS);
+            for &b in &keep {
+                values.extend_from_slice(&self.values[b * BRICK_VOXELS..(b + 1) * BRICK_VOXELS]);
+            }
+            self.brick_origins = keep.iter().map(|&b| self.brick_origins[b]).collect();
+            self.masks = keep.iter().map(|&b| self.masks[b]).collect();
+            self.values = values;
+        }
+        // Merge 8^3 tiles into 128^3 tiles where a whole block is one value.
+        new_tiles.extend(self.tiles.iter().copied());
+        let mut by_block: std::collections::HashMap<IVec3, Vec<Tile<T>>> = Default::default();
+        let mut others = Vec::new();
+        for t in new_tiles {
+            if t.level == 1 {
+                by_block.entry(t.origin >> 7).or_default().push(t);
+            } else {
+                others.push(t);
+            }
+        }
+        let brick_blocks: std::collections::HashSet<IVec3> =
+            self.brick_origins.iter().map(|o| *o >> 7).collect();
+        let mut blocks: Vec<_> = by_block.into_iter().collect();
+        blocks.sort_by_key(|(k, _)| (k.x, k.y, k.z));
+        for (block, ts) in blocks {
+            let v0 = ts[0].value;
+            if ts.len() == NODE_SLOTS
+                && !brick_blocks.contains(&block)
+                && ts.iter().all(|t| t.active && t.value == v0)
+            {
+                others.push(Tile {
+                    origin: block << 7,
+                    level: 2,
+                    value: v0,
+                    active: true,
+                });
+            } else {
+                others.extend(ts);
+            }
+        }
+        self.tiles = others;
+    }
+}
+
+/// A sparse grid of `f32` or `Vec3` values; see the module documentation.
+#[derive(Debug, Clone)]
+pub struct Grid<T: GridValue> {
+    name: String,
+    class: String,
+    background: T,
+    world_from_index: DAffine3,
+    /// For a diagonal map this holds 1/s and -t (see `world_to_index`).
+    index_from_world: DAffine3,
+    diagonal: bool,
+    values: Vec<T>,
+    brick_origins: Vec<IVec3>,
+    masks: Vec<[u64; 8]>,
+    /// Per brick: [min, max] over all 512 values (active or not: trilinear
+    /// interpolation reads them all).
+    ranges: Vec<[T; 2]>,
+    tiles: Vec<Tile<T>>,
+    /// `constants[0]` is the background, then one entry per tile.
+    constants: Vec<T>,
+    /// Top index origin and size in units of 128 voxels.
+    top_origin: IVec3,
+    top_dims: IVec3,
+    top: Vec<u32>,
+    /// 4096 slots per node.
+    nodes: Vec<u32>,
+    /// Inclusive voxel bounds of everything stored (bricks and tiles).
+    bounds: Option<(IVec3, IVec3)>,
+    all_finite: bool,
+}
+
+#[inline(always)]
+fn voxel_offset(ijk: IVec3) -> usize {
+    (((ijk.x & 7) << 6) | ((ijk.y & 7) << 3) | (ijk.z & 7)) as usize
+}
+
+#[inline(always)]
+fn slot_offset(ijk: IVec3) -> usize {
+    ((((ijk.x >> 3) & 15) << 8) | (((ijk.y >> 3) & 15) << 4) | ((ijk.z >> 3) & 15)) as usize
+}
+
+/// The inverse transform. For a diagonal matrix (OpenVDB's scale and
+/// scale-translate maps, what nearly every file uses) it is built from exact
+/// reciprocals, as OpenVDB's `ScaleTranslateMap::applyInverseMap` computes
+/// `(p - t) * (1/s)`: a generic matrix inverse can put a point that lies on
+/// a voxel centre one ulp to the other side of it.
+/// `floor` without a libm call (baseline x86-64 has no SSE4.1 `roundps`):
+/// truncate, then step down where truncation rounded up. Exact for |x| <
+/// 2^31; beyond that the lookup is outside any grid anyway.
+#[inline(always)]
+fn fast_floor(p: Vec3) -> Vec3 {
+    let t = p.as_ivec3().as_vec3();
+    t - Vec3::select(t.cmpgt(p), Vec3::ONE, Vec3::ZERO)
+}
+
+fn invert(m: &DAffine3) -> Option<(DAffine3, bool)> {
+    let det = m.matrix3.determinant();
+    if !det.is_finite() || det.abs() < 1e-300 || !m.translation.is_finite() {
+        return None;
+    }
+    let a = m.matrix3;
+    let diagonal = a.x_axis.y == 0.0
+        && a.x_axis.z == 0.0
+        && a.y_axis.x == 0.0
+        && a.y_axis.z == 0.0
+        && a.z_axis.x == 0.0
+        && a.z_axis.y == 0.0;
+    if diagonal {
+        let inv = DVec3::ONE / DVec3::new(a.x_axis.x, a.y_axis.y, a.z_axis.z);
+        let inverse = DAffine3 {
+            matrix3: glam::DMat3::from_diagonal(inv),
+            translation: -m.translation,
+        };
+        return Some((inverse, true));
+    }
+    Some((m.inverse(), false))
+}
+
+impl<T: GridValue> Grid<T> {
+    /// Builds a grid from its parts, checking that they fit together.
+    pub fn from_parts(parts: GridParts<T>) -> Result<Self> {
+        let GridParts {
+            name,
+            class,
+            background,
+            world_from_index,
+            brick_origins,
+            values,
+            masks,
+            tiles,
+        } = parts;
+        let label = name.clone();
+        let bad = |m: String| Error::InvalidGrid(format!("grid '{label}': {m}"));
+        let n = brick_origins.len();
+        if values.len() != n * BRICK_VOXELS || masks.len() != n {
+            return Err(bad(format!(
+                "{n} bricks but {} values and {} masks",
+                values.len(),
+                masks.len()
+            )));
+        }
+        let (index_from_world, diagonal) = invert(&world_from_index)
+            .ok_or_else(|| bad("its transform is singular or not finite".into()))?;
+        for o in &brick_origins {
+            if *o & 7 != IVec3::ZERO {
+                return Err(bad(format!("brick origin {o} is not a multiple of 8")));
+            }
+        }
+        for t in &tiles {
+            if !(1..=3).contains(&t.level) {
+                return Err(bad(format!("tile at {} has level {}", t.origin, t.level)));
+            }
+            if t.origin & (t.dim() - 1) != IVec3::ZERO {
+                return Err(bad(format!(
+                    "tile origin {} is not aligned to its size {}",
+                    t.origin,
+                    t.dim()
+                )));
+            }
+        }
+
+        // Extent in voxels, then in 128-voxel regions.
+        let mut lo = IVec3::MAX;
+        let mut hi = IVec3::MIN;
+        for o in &brick_origins {
+            lo = lo.min(*o);
+            hi = hi.max(*o + 7);
+        }
+        for t in &tiles {
+            lo = lo.min(t.origin);
+            hi = hi.max(t.origin + (t.dim() - 1));
+        }
+        let bounds = (lo.cmple(hi).all()).then_some((lo, hi));
+        let (top_origin, top_dims) = match bounds {
+            Some((lo, hi)) => {
+                let a = lo >> LOG2_NODE_VOXELS;
+                let b = hi >> LOG2_NODE_VOXELS;
+                let d = (b - a).as_i64vec3() + 1;
+                if d.x * d.y * d.z > MAX_TOP_ENTRIES {
+                    return Err(bad(format!(
+                        "its extent {lo}..{hi} is too large ({} x {} x {} voxels)",
+                        hi.x as i64 - lo.x as i64 + 1,
+                        hi.y as i64 - lo.y as i64 + 1,
+                        hi.z as i64 - lo.z as i64 + 1
+                    )));
+                }
+                (a, (b - a) + 1)
+            }
+            None => (IVec3::ZERO, IVec3::ZERO),
+        };
+        let top_len = (top_dims.x as usize) * (top_dims.y as usize) * (top_dims.z as usize);
+        let mut grid = Grid {
+            name,
+            class,
+            background,
+            world_from_index,
+            index_from_world,
+            diagonal,
+            values,
+            brick_origins,
+            masks,
+            ranges: Vec::new(),
+            tiles: Vec::new(),
+            constants: vec![background],
+            top_origin,
+            top_dims,
+            top: vec![EMPTY; top_len],
+            nodes: Vec::new(),
+            bounds,
+            all_finite: true,
+        };
+
+        // Large tiles go straight into the top index; order by level so that
+        // an overlap is always detected on the smaller piece.
+        let mut tiles = tiles;
+        tiles.sort_by_key(|t| std::cmp::Reverse(t.level));
+        for t in &tiles {
+            let code = CONST_BIT | grid.constants.len() as u32;
+            grid.constants.push(t.value);
+            if t.level >= 2 {
+                let a = (t.origin >> LOG2_NODE_VOXELS) - top_origin;
+                let k = t.dim() >> LOG2_NODE_VOXELS;
+                for z in 0..k {
+                    for y in 0..k {
+                        for x in 0..k {
+                            let i = grid.top_index(a + IVec3::new(x, y, z));
+                            if grid.top[i] != EMPTY {
+                                return Err(bad(format!("tile at {} overlaps another", t.origin)));
+                            }
+                            grid.top[i] = code;
+                        }
+                    }
+                }
+            } else {
+                let s = grid.node_slot_mut(t.origin).map_err(bad)?;
+                if *s != EMPTY {
+                    return Err(bad(format!("tile at {} overlaps another", t.origin)));
+                }
+                *s = code;
+            }
+        }
+        grid.tiles = tiles;
+        for b in 0..grid.brick_origins.len() {
+            let o = grid.brick_origins[b];
+            let s = grid.node_slot_mut(o).map_err(bad)?;
+            if *s != EMPTY {
+                return Err(bad(format!(
+                    "brick at {o} overlaps another brick or a tile"
+                )));
+            }
+            *s = b as u32;
+        }
+        if grid.brick_origins.len() >= CONST_BIT as usize {
+            return Err(bad("too many bricks".into()));
+        }
+
+        let (ranges, finite): (Vec<[T; 2]>, Vec<bool>) = grid
+            .values
+            .par_chunks(BRICK_VOXELS)
+            .with_min_len(64)
+            .map(T::range_of)
+            .unzip();
+        grid.ranges = ranges;
+        grid.all_finite = background.is_finite()
+            && finite.iter().all(|&f| f)
+            && grid.tiles.iter().all(|t| t.value.is_finite());
+        Ok(grid)
+    }
+
+    #[inline(always)]
+    fn top_index(&self, t: IVec3) -> usize {
+        ((t.z as usize * self.top_dims.y as usize) + t.y as usize) * self.top_dims.x as usize
+            + t.x as usize
+    }
+
+    /// The node slot for the brick containing `ijk`, creating the node.
+    fn node_slot_mut(&mut self, ijk: IVec3) -> std::result::Result<&mut u32, String> {
+        let i = self.top_index((ijk >> LOG2_NODE_VOXELS) - self.top_origin);
+        let e = self.top[i];
+        let node = if e == EMPTY {
+            let node = (self.nodes.len() / NODE_SLOTS) as u32;
+            self.nodes.resize(self.nodes.len() + NODE_SLOTS, EMPTY);
+            self.top[i] = node;
+            node
+        } else if e & CONST_BIT != 0 {
+            return Err(format!("the 8^3 block at {ijk} overlaps a larger tile"));
+        } else {
+            e
+        };
+        Ok(&mut self.nodes[node as usize * NODE_SLOTS + slot_offset(ijk)])
+    }
+
+    /// The slot code of the 8^3 block that holds voxel `ijk`.
+    #[inline(always)]
+    fn slot(&self, ijk: IVec3) -> u32 {
+        let t = (ijk >> LOG2_NODE_VOXELS) - self.top_origin;
+        if (t.x as u32) >= self.top_dims.x as u32
+            || (t.y as u32) >= self.top_dims.y as u32
+            || (t.z as u32) >= self.top_dims.z as u32
+        {
+            return EMPTY;
+        }
+        // SAFETY-free fast path: indices are in range by the check above and
+        // by construction of `nodes`.
+        let e = self.top[self.top_index(t)];
+        if e & CONST_BIT != 0 {
+            return e;
+        }
+        self.nodes[e as usize * NODE_SLOTS + slot_offset(ijk)]
+    }
+
+    /// The value of voxel `ijk` (background outside what is stored).
+    #[inline(always)]
+    pub fn get(&self, ijk: IVec3) -> T {
+        let s = self.slot(ijk);
+        if s & CONST_BIT != 0 {
+            self.constants[(s & !CONST_BIT) as usize]
+        } else {
+            self.values[s as usize * BRICK_VOXELS + voxel_offset(ijk)]
+        }
+    }
+
+    /// Whether voxel `ijk` is active.
+    pub fn is_active(&self, ijk: IVec3) -> bool {
+        let s = self.slot(ijk);
+        if s & CONST_BIT != 0 {
+            let c = (s & !CONST_BIT) as usize;
+            c > 0 && self.tiles[c - 1].active
+        } else {
+            let bit = voxel_offset(ijk);
+            self.masks[s as usize][bit >> 6] >> (bit & 63) & 1 == 1
+        }
+    }
+
+    /// The value at voxel offset `v` of the 8^3 block with slot code `s`.
+    #[inline(always)]
+    fn value_in(&self, s: u32, v: usize) -> T {
+        if s & CONST_BIT != 0 {
+            self.constants[(s & !CONST_BIT) as usize]
+        } else {
+            self.values[s as usize * BRICK_VOXELS + v]
+        }
+    }
+
+    /// The eight values around `i0`, ordered `[x][y][z]` as in `BoxSampler`.
+    #[inline(always)]
+    fn fetch8(&self, i0: IVec3) -> [T; 8] {
+        let lo = i0 & 7;
+        let s = self.slot(i0);
+        if lo.x != 7 && lo.y != 7 && lo.z != 7 {
+            // All eight in one 8^3 block (343 of 512 cases).
+            if s & CONST_BIT != 0 {
+                return [self.constants[(s & !CONST_BIT) as usize]; 8];
+            }
+            let b = s as usize * BRICK_VOXELS + voxel_offset(i0);
+            let v = &self.values[b..b + 74];
+            return [v[0], v[1], v[8], v[9], v[64], v[65], v[72], v[73]];
+        }
+        // The corners span two to eight blocks: look each block up once.
+        let step = IVec3::new((lo.x == 7) as i32, (lo.y == 7) as i32, (lo.z == 7) as i32) * 8;
+        let mut slots = [s; 8];
+        for (c, slot) in slots.iter_mut().enumerate().skip(1) {
+            let d = IVec3::new((c >> 2) as i32, ((c >> 1) & 1) as i32, (c & 1) as i32) * step;
+            if d != IVec3::ZERO {
+                *slot = self.slot(i0 + d);
+            }
+        }
+        let o = |d: i32, l: i32| if l == 7 { -(7 << d) } else { 1 << d };
+        let base = voxel_offset(i0) as i32;
+        let (dx, dy, dz) = (o(6, lo.x), o(3, lo.y), o(0, lo.z));
+        std::array::from_fn(|c| {
+            let (cx, cy, cz) = ((c >> 2) as i32, ((c >> 1) & 1) as i32, (c & 1) as i32);
+            self.value_in(slots[c], (base + cx * dx + cy * dy + cz * dz) as usize)
+        })
+    }
+
+    /// Trilinear sample at a point in index space (single precision: the
+    /// renderer's path, which transforms rays into index space once).
+    #[inline]
+    pub fn sample_index(&self, p: Vec3) -> T {
+        let f = fast_floor(p);
+        let w = p - f;
+        let d = self.fetch8(f.as_ivec3());
+        let l = T::lerp_f32;
+        let y0 = l(l(d[0], d[1], w.z), l(d[2], d[3], w.z), w.y);
+        let y1 = l(l(d[4], d[5], w.z), l(d[6], d[7], w.z), w.y);
+        l(y0, y1, w.x)
+    }
+
+    /// Trilinear sample at a point in index space, in double precision,
+    /// matching `openvdb::tools::BoxSampler::sample` operation by operation.
+    pub fn sample_index_f64(&self, p: DVec3) -> T {
+        let f = p.floor();
+        let w = p - f;
+        let d = self.fetch8(f.as_ivec3());
+        let l = T::lerp_f64;
+        let y0 = l(l(d[0], d[1], w.z), l(d[2], d[3], w.z), w.y);
+        let y1 = l(l(d[4], d[5], w.z), l(d[6], d[7], w.z), w.y);
+        l(y0, y1, w.x)
+    }
+
+    /// World to index space, in double precision, computed as OpenVDB does.
+    pub fn world_to_index(&self, p: DVec3) -> DVec3 {
+        let m = &self.index_from_world;
+        if self.diagonal {
+            // (p - t) * (1/s): `translation` holds -t for diagonal maps.
+            (p + m.translation)
+                * DVec3::new(m.matrix3.x_axis.x, m.matrix3.y_axis.y, m.matrix3.z_axis.z)
+        } else {
+            m.transform_point3(p)
+        }
+    }
+
+    /// Index to world space.
+    pub fn index_to_world(&self, p: DVec3) -> DVec3 {
+        self.world_from_index.transform_point3(p)
+    }
+
+    /// Trilinear sample at a world-space point (OpenVDB's `wsSample`).
+    pub fn sample_world(&self, p: DVec3) -> T {
+        self.sample_index_f64(self.world_to_index(p))
+    }
+
+    /// [min, max] of every value that a lookup in the inclusive voxel box
+    /// `lo..=hi` can read, or `None` when the box is empty. Values outside
+    /// the stored region count as the background. Used to build majorants.
+    pub fn range_in_box(&self, lo: IVec3, hi: IVec3) -> Option<[T; 2]> {
+        if lo.cmpgt(hi).any() {
+            return None;
+        }
+        let mut acc: Option<[T; 2]> = None;
+        let mut add = |r: [T; 2]| {
+            acc = Some(match acc {
+                None => r,
+                Some([a, b]) => [T::min(a, r[0]), T::max(b, r[1])],
+            })
+        };
+        let bg = [self.background; 2];
+        // Regions of the box outside the top index hold the background.
+        let t_lo = lo >> LOG2_NODE_VOXELS;
+        let t_hi = hi >> LOG2_NODE_VOXELS;
+        let top_hi = self.top_origin + self.top_dims - 1;
+        if t_lo.cmplt(self.top_origin).any() || t_hi.cmpgt(top_hi).any() {
+            add(bg);
+        }
+        let a = t_lo.max(self.top_origin);
+        let b = t_hi.min(top_hi);
+        for tz in a.z..=b.z {
+            for ty in a.y..=b.y {
+                for tx in a.x..=b.x {
+                    let t = IVec3::new(tx, ty, tz);
+                    let e = self.top[self.top_index(t - self.top_origin)];
+                    if e & CONST_BIT != 0 {
+                        add([self.constants[(e & !CONST_BIT) as usize]; 2]);
+                        continue;
+                    }
+                    let node = &self.nodes[e as usize * NODE_SLOTS..][..NODE_SLOTS];
+                    let r0: IVec3 = t << LOG2_NODE_VOXELS;
+                    let blo: IVec3 = (lo.max(r0) - r0) >> 3;
+                    let bhi: IVec3 = (hi.min(r0 + 127) - r0) >> 3;
+                    for bx in blo.x..=bhi.x {
+                        for by in blo.y..=bhi.y {
+                            for bz in blo.z..=bhi.z {
+                                let s = node[((bx << 8) | (by << 4) | bz) as usize];
+                                if s & CONST_BIT != 0 {
+                                    add([self.constants[(s & !CONST_BIT) as usize]; 2]);
+                                } else {
+                                    add(self.ranges[s as usize]);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        acc
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn class(&self) -> &str {
+        &self.class
+    }
+    pub fn background(&self) -> T {
+        self.background
+    }
+    pub fn world_from_index(&self) -> DAffine3 {
+        self.world_from_index
+    }
+    /// The inverse of `world_from_index` as an affine map.
+    pub fn index_from_world(&self) -> DAffine3 {
+        if self.diagonal {
+            let d = self.index_from_world.matrix3;
+            DAffine3 {
+                matrix3: d,
+                translation: d * self.index_from_world.translation,
+            }
+        } else {
+            self.index_from_world
+        }
+    }
+    /// Lengths of the index axes in world units.
+    pub fn voxel_size(&self) -> DVec3 {
+        let m = self.world_from_index.matrix3;
+        DVec3::new(m.x_axis.length(), m.y_axis.length(), m.z_axis.length())
+    }
+    /// Inclusive voxel bounds of everything stored (bricks and tiles), or
+    /// `None` for an empty grid. Outside it every value is the background.
+    pub fn stored_bounds(&self) -> Option<(IVec3, IVec3)> {
+        self.bounds
+    }
+    pub fn brick_count(&self) -> usize {
+        self.brick_origins.len()
+    }
+    pub fn brick_origins(&self) -> &[IVec3] {
+        &self.brick_origins
+    }
+    /// The 512 values of brick `b`.
+    pub fn brick_values(&self, b: usize) -> &[T] {
+        &self.values[b * BRICK_VOXELS..(b + 1) * BRICK_VOXELS]
+    }
+    pub fn brick_mask(&self, b: usize) -> &[u64; 8] {
+        &self.masks[b]
+    }
+    pub fn brick_range(&self, b: usize) -> [T; 2] {
+        self.ranges[b]
+    }
+    pub fn tiles(&self) -> &[Tile<T>] {
+        &self.tiles
+    }
+    /// False when any stored value is NaN or infinite.
+    pub fn all_finite(&self) -> bool {
+        self.all_finite
+    }
+    /// [min, max] over every stored value, or `None` for an empty grid.
+    pub fn value_range(&self) -> Option<[T; 2]> {
+        let (lo, hi) = self.bounds?;
+        self.range_in_box(lo, hi)
+    }
+
+    /// Number of active voxels (in bricks and in active tiles).
+    pub fn active_voxel_count(&self) -> u64 {
+        let bricks: u64 = self
+            .masks
+            .iter()
+            .map(|m| m.iter().map(|w| w.count_ones() as u64).sum::<u64>())
+            .sum();
+        let tiles: u64 = self
+            .tiles
+            .iter()
+            .filter(|t| t.active)
+            .map(|t| (t.dim() as u64).pow(3))
+            .sum();
+        bricks + tiles
+    }
+
+    /// Inclusive bounding box of the active voxels.
+    pub fn active_bounds(&self) -> Option<(IVec3, IVec3)> {
+        let mut lo = IVec3::MAX;
+        let mut hi = IVec3::MIN;
+        for (o, m) in self.brick_origins.iter().zip(&self.masks) {
+            for (w, &word) in m.iter().enumerate() {
+                let mut bits = word;
+                while bits != 0 {
+                    let n = w * 64 + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let p = *o + IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                }
+            }
+        }
+        for t in self.tiles.iter().filter(|t| t.active) {
+            lo = lo.min(t.origin);
+            hi = hi.max(t.origin + (t.dim() - 1));
+        }
+        lo.cmple(hi).all().then_some((lo, hi))
+    }
+
+    /// Heap and inline memory taken by the grid, in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        size_of::<Self>()
+            + self.values.capacity() * size_of::<T>()
+            + self.brick_origins.capacity() * size_of::<IVec3>()
+            + self.masks.capacity() * size_of::<[u64; 8]>()
+            + self.ranges.capacity() * size_of::<[T; 2]>()
+            + self.tiles.capacity() * size_of::<Tile<T>>()
+            + self.constants.capacity() * size_of::<T>()
+            + self.top.capacity() * 4
+            + self.nodes.capacity() * 4
+            + self.name.capacity()
+            + self.class.capacity()
+    }
+
+    /// Takes the grid apart again (for writing).
+    pub fn to_parts(&self) -> GridParts<T> {
+        GridParts {
+            name: self.name.clone(),
+            class: self.class.clone(),
+            background: self.background,
+            world_from_index: self.world_from_index,
+            brick_origins: self.brick_origins.clone(),
+            values: self.values.clone(),
+            masks: self.masks.clone(),
+            tiles: self.tiles.clone(),
+        }
+    }
+
+    /// Checks the internal invariants: every brick reachable through the
+    /// index at its origin, every range bounding its brick's values. For
+    /// tests; O(size of the grid).
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        for (b, o) in self.brick_origins.iter().enumerate() {
+            if self.slot(*o) != b as u32 {
+                return Err(format!("brick {b} at {o} is not reachable"));
+            }
+            let [lo, hi] = self.ranges[b];
+            for &v in self.brick_values(b) {
+                if T::min(lo, v) != lo || T::max(hi, v) != hi {
+                    return Err(format!("brick {b}: value {v:?} outside its range"));
+                }
+            }
+        }
+        for (i, t) in self.tiles.iter().enumerate() {
+            if self.get(t.origin) != t.value || self.get(t.origin + (t.dim() - 1)) != t.value {
+                return Err(format!("tile {i} at {} does not read back", t.origin));
+            }
+        }
+        Ok(())
+    }
+}

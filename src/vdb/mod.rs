@@ -1,0 +1,384 @@
+//! Safe access to `.vdb` files: the header check of [`header`], then the
+//! OpenVDB bridge of [`ffi`] for the grids themselves.
+//!
+//! Reading a grid: check the path and the header in Rust (a damaged file is
+//! refused at once, see [`header`]), refuse unsupported value types from the
+//! grid table, then let OpenVDB read the grid with delayed loading off and
+//! move it into a [`Grid`] leaf by leaf. Every error names the file and the
+//! grid.
+
+mod ffi;
+pub mod header;
+
+use crate::error::{Error, Result};
+use crate::grid::{Grid, GridParts, GridValue, Tile};
+use ffi::bridge;
+use glam::{DAffine3, DMat3, DVec3, IVec3, Vec3};
+pub use header::{GridDescriptor, Header};
+use std::path::{Path, PathBuf};
+
+/// Newest VDB file format version we accept (OpenVDB 10 writes 224).
+pub const MAX_FILE_VERSION: u32 = 224;
+
+/// Metadata entry (name, OpenVDB type name, value as text).
+pub type MetaEntry = bridge::MetaEntry;
+/// What OpenVDB reports about a grid.
+pub type GridInfo = bridge::GridInfo;
+
+/// A grid of either supported value type.
+#[derive(Debug, Clone)]
+pub enum AnyGrid {
+    Float(Grid<f32>),
+    Vec3(Grid<Vec3>),
+}
+
+impl AnyGrid {
+    pub fn name(&self) -> &str {
+        match self {
+            AnyGrid::Float(g) => g.name(),
+            AnyGrid::Vec3(g) => g.name(),
+        }
+    }
+    pub fn memory_bytes(&self) -> usize {
+        match self {
+            AnyGrid::Float(g) => g.memory_bytes(),
+            AnyGrid::Vec3(g) => g.memory_bytes(),
+        }
+    }
+    pub fn active_voxel_count(&self) -> u64 {
+        match self {
+            AnyGrid::Float(g) => g.active_voxel_count(),
+            AnyGrid::Vec3(g) => g.active_voxel_count(),
+        }
+    }
+}
+
+/// An opened `.vdb` file whose header has been checked.
+#[derive(Debug, Clone)]
+pub struct VdbFile {
+    path: PathBuf,
+    header: Header,
+}
+
+fn path_str(path: &Path) -> Result<&str> {
+    path.to_str()
+        .ok_or_else(|| Error::file(path, "the path is not valid UTF-8"))
+}
+
+/// Turns an OpenVDB exception text into words a user understands.
+fn explain_openvdb(msg: &str) -> String {
+    let lower = msg.to_ascii_lowercase();
+    if lower.contains("not registered")
+        || lower.contains("decompress")
+        || lower.contains("unexpected end")
+        || lower.contains("error reading")
+        || lower.contains("ioerror")
+        || lower.contains("read")
+    {
+        format!("the file is truncated or corrupt (OpenVDB: {msg})")
+    } else {
+        format!("OpenVDB could not read it: {msg}")
+    }
+}
+
+fn affine_from_rows(m: &[f64; 12]) -> DAffine3 {
+    DAffine3 {
+        matrix3: DMat3::from_cols(
+            DVec3::new(m[0], m[4], m[8]),
+            DVec3::new(m[1], m[5], m[9]),
+            DVec3::new(m[2], m[6], m[10]),
+        ),
+        translation: DVec3::new(m[3], m[7], m[11]),
+    }
+}
+
+fn rows_from_affine(a: &DAffine3) -> [f64; 12] {
+    let c = a.matrix3;
+    let t = a.translation;
+    [
+        c.x_axis.x, c.y_axis.x, c.z_axis.x, t.x, c.x_axis.y, c.y_axis.y, c.z_axis.y, t.y,
+        c.x_axis.z, c.y_axis.z, c.z_axis.z, t.z,
+    ]
+}
+
+impl VdbFile {
+    /// Opens `path` and checks its header and grid table.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+        if meta.is_dir() {
+            return Err(Error::file(path, "is a directory, not a .vdb file"));
+        }
+        let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let header =
+            header::parse(&mut f, meta.len()).map_err(|e| Error::file(path, e.to_string()))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            header,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+    pub fn grid_names(&self) -> Vec<&str> {
+        self.header.grids.iter().map(|g| g.name.as_str()).collect()
+    }
+
+    /// The grid table entry for `name`, or an error that lists the grids.
+    pub fn descriptor(&self, name: &str) -> Result<&GridDescriptor> {
+        self.header
+            .grids
+            .iter()
+            .find(|g| g.name == name || g.unique_name == name)
+            .ok_or_else(|| {
+                let names = self.grid_names();
+                let list = if names.is_empty() {
+                    "it has no grids".to_string()
+                } else {
+                    format!("its grids: {}", names.join(", "))
+                };
+                Error::file(&self.path, format!("no grid named '{name}' ({list})"))
+            })
+    }
+
+    /// File metadata and each grid's info, without reading the trees.
+    pub fn info(&self) -> Result<bridge::FileInfo> {
+        bridge::read_file_info(path_str(&self.path)?)
+            .map_err(|e| Error::file(&self.path, explain_openvdb(e.what())))
+    }
+
+    fn read_typed<T: GridValue>(&self, name: &str) -> Result<Grid<T>> {
+        let d = self.descriptor(name)?;
+        let channels = T::CHANNELS;
+        let have = d.channels().ok_or_else(|| {
+            Error::grid(
+                &self.path,
+                &d.name,
+                format!(
+                    "has value type {}; vdbphoton reads float, double and vec3s grids",
+                    d.value_type()
+                ),
+            )
+        })?;
+        if have != channels {
+            let want = if channels == 1 {
+                "a scalar (float or double)"
+            } else {
+                "a vec3s"
+            };
+            return Err(Error::grid(
+                &self.path,
+                &d.name,
+                format!(
+                    "has value type {} where {want} grid is needed",
+                    d.value_type()
+                ),
+            ));
+        }
+        let openvdb_err =
+            |e: cxx::Exception| Error::grid(&self.path, &d.name, explain_openvdb(e.what()));
+        let loaded =
+            bridge::load_grid(path_str(&self.path)?, &d.unique_name).map_err(openvdb_err)?;
+        let layout = bridge::grid_layout(&loaded).map_err(openvdb_err)?;
+        if !layout.info.linear {
+            return Err(Error::grid(
+                &self.path,
+                &d.name,
+                format!(
+                    "uses a non-linear ({}) transform; vdbphoton reads only linear (affine) transforms",
+                    layout.info.map_type
+                ),
+            ));
+        }
+        if layout.channels as usize != channels {
+            return Err(Error::grid(
+                &self.path,
+                &d.name,
+                format!(
+                    "has value type {}, which vdbphoton does not read",
+                    layout.info.value_type
+                ),
+            ));
+        }
+        let n = usize::try_from(layout.leaf_count).unwrap_or(usize::MAX);
+        if n > (1usize << 31) / 8 {
+            return Err(Error::grid(
+                &self.path,
+                &d.name,
+                format!("has {n} leaves, more than vdbphoton can hold"),
+            ));
+        }
+        let mut origins = vec![0i32; 3 * n];
+        let mut values = vec![0f32; 512 * channels * n];
+        let mut masks = vec![0u64; 8 * n];
+        bridge::copy_leaves(&loaded, &mut origins, &mut values, &mut masks).map_err(openvdb_err)?;
+        drop(loaded);
+        let parts = parts_from_layout::<T>(layout, origins, values, masks);
+        Grid::from_parts(parts).map_err(|e| Error::grid(&self.path, &d.name, e.to_string()))
+    }
+
+    /// Reads a `float` or `double` grid (doubles become f32).
+    pub fn read_float(&self, name: &str) -> Result<Grid<f32>> {
+        self.read_typed(name)
+    }
+
+    /// Reads a `vec3s` grid.
+    pub fn read_vec3(&self, name: &str) -> Result<Grid<Vec3>> {
+        self.read_typed(name)
+    }
+
+    /// Reads a grid of any supported type.
+    pub fn read_any(&self, name: &str) -> Result<AnyGrid> {
+        let d = self.descriptor(name)?;
+        match d.channels() {
+            Some(3) => self.read_vec3(name).map(AnyGrid::Vec3),
+            _ => self.read_float(name).map(AnyGrid::Float),
+        }
+    }
+}
+
+fn parts_from_layout<T: GridValue>(
+    d: bridge::GridLayout,
+    origins: Vec<i32>,
+    values: Vec<f32>,
+    masks: Vec<u64>,
+) -> GridParts<T> {
+    let brick_origins = origins
+        .chunks_exact(3)
+        .map(|c| IVec3::new(c[0], c[1], c[2]))
+        .collect();
+    let masks = masks
+        .chunks_exact(8)
+        .map(|c| c.try_into().unwrap())
+        .collect();
+    let n = T::CHANNELS;
+    let tiles = (0..d.tile_levels.len())
+        .map(|t| Tile {
+            origin: IVec3::new(
+                d.tile_origins[3 * t],
+                d.tile_origins[3 * t + 1],
+                d.tile_origins[3 * t + 2],
+            ),
+            level: d.tile_levels[t],
+            value: T::from_slice(&d.tile_values[n * t..n * (t + 1)]),
+            active: d.tile_active[t],
+        })
+        .collect();
+    GridParts {
+        name: d.info.name,
+        class: d.info.grid_class,
+        background: T::from_slice(&d.background),
+        world_from_index: affine_from_rows(&d.info.world_from_index),
+        brick_origins,
+        values: T::from_flat(values),
+        masks,
+        tiles,
+    }
+}
+
+fn data_from_grid<T: GridValue>(g: &Grid<T>) -> bridge::GridData {
+    let mut d = bridge::GridData {
+        channels: T::CHANNELS as u32,
+        ..Default::default()
+    };
+    d.info.name = g.name().to_string();
+    d.info.grid_class = g.class().to_string();
+    d.info.world_from_index = rows_from_affine(&g.world_from_index());
+    g.background().write_to(&mut d.background);
+    d.leaf_origins = g
+        .brick_origins()
+        .iter()
+        .flat_map(|o| o.to_array())
+        .collect();
+    d.leaf_masks = (0..g.brick_count())
+        .flat_map(|b| *g.brick_mask(b))
+        .collect();
+    d.leaf_values = Vec::with_capacity(g.brick_count() * 512 * T::CHANNELS);
+    for b in 0..g.brick_count() {
+        d.leaf_values.extend(T::to_flat(g.brick_values(b)));
+    }
+    for t in g.tiles() {
+        d.tile_origins.extend(t.origin.to_array());
+        d.tile_levels.push(t.level);
+        d.tile_active.push(t.active);
+        t.value.write_to(&mut d.tile_values);
+    }
+    d
+}
+
+/// The temporary name a file is written under before it is renamed.
+pub fn temp_path_for(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+/// Writes grids to a `.vdb` file: to a temporary name first, then renamed,
+/// so an interrupted or failed write never leaves a partial file.
+pub fn write_vdb(path: impl AsRef<Path>, grids: &[AnyGrid]) -> Result<()> {
+    let path = path.as_ref();
+    let data: Vec<bridge::GridData> = grids
+        .iter()
+        .map(|g| match g {
+            AnyGrid::Float(g) => data_from_grid(g),
+            AnyGrid::Vec3(g) => data_from_grid(g),
+        })
+        .collect();
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(Error::file(
+                path,
+                "cannot write: its directory does not exist",
+            ));
+        }
+    }
+    let tmp = temp_path_for(path);
+    let creator = format!("vdbphoton {}", env!("CARGO_PKG_VERSION"));
+    let result = bridge::write_grids(path_str(&tmp)?, &data, &creator)
+        .map_err(|e| Error::file(path, format!("cannot write: {}", e.what())))
+        .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// OpenVDB's own version string (ABI version).
+pub fn openvdb_version() -> String {
+    bridge::openvdb_version().unwrap_or_else(|_| "unknown".into())
+}
+
+/// Direct calls into OpenVDB for tests and benchmarks: its own trilinear
+/// sampler, its own read timing, and files our writer refuses to make.
+pub mod reference {
+    use super::*;
+
+    /// Samples `grid` of `path` at world points with OpenVDB's
+    /// `GridSampler<_, BoxSampler>::wsSample` (1 or 3 floats per point).
+    pub fn box_sample_world(path: &Path, grid: &str, points: &[DVec3]) -> Result<Vec<f32>> {
+        let xyz: Vec<f64> = points.iter().flat_map(|p| p.to_array()).collect();
+        bridge::box_sample_world(path_str(path)?, grid, &xyz)
+            .map_err(|e| Error::grid(path, grid, e.what().to_string()))
+    }
+
+    /// Time to open the file and read one grid with OpenVDB alone, and the
+    /// grid's `memUsage()`.
+    pub fn openvdb_read(path: &Path, grid: &str) -> Result<(f64, u64, u64)> {
+        let s = bridge::openvdb_read_stats(path_str(path)?, grid)
+            .map_err(|e| Error::grid(path, grid, e.what().to_string()))?;
+        Ok((s.seconds, s.mem_bytes, s.active_voxels))
+    }
+
+    /// Writes a file with an `int32` grid ("int32") or a frustum transform
+    /// ("frustum"), which the reader must refuse with a clear error.
+    pub fn write_unsupported_fixture(path: &Path, kind: &str) -> Result<()> {
+        bridge::write_test_fixture(path_str(path)?, kind)
+            .map_err(|e| Error::file(path, e.what().to_string()))
+    }
+}

@@ -1,0 +1,110 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use glam::{DAffine3, DQuat, DVec3, IVec3};
+use std::path::PathBuf;
+use vdbphoton::grid::{Grid, GridParts, Tile};
+
+/// A small deterministic RNG for test inputs (SplitMix64).
+pub struct TestRng(pub u64);
+
+impl TestRng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    pub fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.f64()
+    }
+}
+
+/// The real-data folder from `VDBPHOTON_REAL_DATA`. `None` (with a note)
+/// when the variable is unset; a panic when it is set but the folder is
+/// missing, so CI cannot pass by skipping.
+pub fn real_data() -> Option<PathBuf> {
+    match std::env::var_os("VDBPHOTON_REAL_DATA") {
+        None => {
+            eprintln!(
+                "note: VDBPHOTON_REAL_DATA is not set; skipping the real-data part of this test"
+            );
+            None
+        }
+        Some(p) => {
+            let p = PathBuf::from(p);
+            assert!(
+                p.join("cloud96.vdb").is_file(),
+                "VDBPHOTON_REAL_DATA={} does not hold cloud96.vdb",
+                p.display()
+            );
+            Some(p)
+        }
+    }
+}
+
+pub fn tempdir() -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix("vdbphoton-test")
+        .tempdir()
+        .unwrap()
+}
+
+/// A hand-built grid with tiles at every level, bricks with partial masks,
+/// an inactive non-background tile, negative coordinates and a rotated,
+/// translated, non-uniformly scaled transform.
+pub fn hand_built() -> Grid<f32> {
+    let xf = DAffine3::from_scale_rotation_translation(
+        DVec3::new(0.05, 0.07, 0.04),
+        DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -0.2, 0.9),
+        DVec3::new(1.5, -2.0, 0.25),
+    );
+    let mut p = GridParts::new("tiles", 0.0f32, xf);
+    p.tiles.push(Tile {
+        origin: IVec3::new(0, 0, 0),
+        level: 2,
+        value: 0.75,
+        active: true,
+    });
+    p.tiles.push(Tile {
+        origin: IVec3::new(128, 0, 0),
+        level: 1,
+        value: 0.25,
+        active: true,
+    });
+    p.tiles.push(Tile {
+        origin: IVec3::new(136, 8, 0),
+        level: 1,
+        value: 0.5,
+        active: false,
+    });
+    p.tiles.push(Tile {
+        origin: IVec3::new(-4096, -4096, 0),
+        level: 3,
+        value: 0.125,
+        active: true,
+    });
+    let mut rng = TestRng(7);
+    for o in [
+        IVec3::new(128, 8, 0),
+        IVec3::new(-8, -8, -8),
+        IVec3::new(120, 128, 0),
+        IVec3::new(136, 0, 8),
+    ] {
+        p.brick_origins.push(o);
+        let mut mask = [0u64; 8];
+        for v in 0..512 {
+            let x = rng.f64() as f32;
+            p.values.push(if x < 0.2 { 0.0 } else { x });
+            if x >= 0.2 {
+                mask[v >> 6] |= 1 << (v & 63);
+            }
+        }
+        p.masks.push(mask);
+    }
+    Grid::from_parts(p).unwrap()
+}

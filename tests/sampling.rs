@@ -1,0 +1,216 @@
+//! Our trilinear sampling against OpenVDB's own `BoxSampler`, called through
+//! the bridge: 100,000 random world points per grid, equal to 1e-6 relative.
+
+mod common;
+
+use glam::{DVec3, IVec3};
+use std::path::Path;
+use vdbphoton::generate;
+use vdbphoton::grid::{Grid, GridValue};
+use vdbphoton::vdb::{reference, write_vdb, AnyGrid, VdbFile};
+
+const POINTS: usize = 100_000;
+
+/// Random world points over the stored region padded by 3 voxels (so the
+/// boundary and the background around it are exercised), and a quarter of
+/// them placed exactly on voxel centres and cell faces.
+fn points<T: GridValue>(g: &Grid<T>, seed: u64) -> Vec<DVec3> {
+    let (lo, hi) = g.stored_bounds().expect("grid is empty");
+    let lo = lo.as_dvec3() - 3.0;
+    let hi = hi.as_dvec3() + 3.0;
+    let mut rng = common::TestRng(seed);
+    (0..POINTS)
+        .map(|i| {
+            let mut p = DVec3::new(
+                rng.range(lo.x, hi.x),
+                rng.range(lo.y, hi.y),
+                rng.range(lo.z, hi.z),
+            );
+            if i % 4 == 0 {
+                p = p.round();
+            } else if i % 4 == 1 {
+                p.x = p.x.floor() + 0.5;
+            }
+            g.world_from_index().transform_point3(p)
+        })
+        .collect()
+}
+
+fn compare<T: GridValue>(g: &Grid<T>, file: &Path, seed: u64) -> f64 {
+    let pts = points(g, seed);
+    let ours: Vec<f32> = pts
+        .iter()
+        .flat_map(|p| T::to_flat(&[g.sample_world(*p)]))
+        .collect();
+    let theirs = reference::box_sample_world(file, g.name(), &pts).unwrap();
+    assert_eq!(ours.len(), theirs.len());
+    let mut worst = 0.0f64;
+    for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+        let (a, b) = (*a as f64, *b as f64);
+        let rel = (a - b).abs() / b.abs().max(1e-6);
+        assert!(
+            rel <= 1e-6,
+            "{} in {}: point {} ({:?}): ours {a}, OpenVDB {b}",
+            g.name(),
+            file.display(),
+            i / T::CHANNELS,
+            pts[i / T::CHANNELS]
+        );
+        worst = worst.max(rel);
+    }
+    // The samples are not all background: the test compares real values.
+    let nonzero = theirs.iter().filter(|v| **v != 0.0).count();
+    assert!(
+        nonzero > theirs.len() / 100,
+        "{}: only {nonzero} nonzero samples",
+        g.name()
+    );
+    worst
+}
+
+fn compare_file(path: &Path) {
+    let f = VdbFile::open(path).unwrap();
+    let mut n = 0;
+    for (k, d) in f.header().grids.iter().enumerate() {
+        if d.channels().is_none() {
+            continue;
+        }
+        let worst = match f.read_any(&d.name).unwrap() {
+            AnyGrid::Float(g) => compare(&g, path, k as u64 + 1),
+            AnyGrid::Vec3(g) => compare(&g, path, k as u64 + 1),
+        };
+        eprintln!(
+            "{} / {}: worst relative difference {worst:.2e}",
+            path.display(),
+            d.name
+        );
+        n += 1;
+    }
+    assert!(n > 0, "{} has no readable grid", path.display());
+}
+
+#[test]
+fn generated_cloud_matches_box_sampler() {
+    let dir = common::tempdir();
+    let path = dir.path().join("cloud.vdb");
+    write_vdb(&path, &[AnyGrid::Float(generate::cloud(64, 9).unwrap())]).unwrap();
+    compare_file(&path);
+}
+
+#[test]
+fn generated_plume_matches_box_sampler() {
+    let dir = common::tempdir();
+    let path = dir.path().join("plume.vdb");
+    write_vdb(&path, &generate::plume(40, 2).unwrap()).unwrap();
+    compare_file(&path);
+}
+
+#[test]
+fn tiles_at_two_levels_match_box_sampler() {
+    let dir = common::tempdir();
+    let path = dir.path().join("tiles.vdb");
+    let g = common::hand_built();
+    write_vdb(&path, &[AnyGrid::Float(g.clone())]).unwrap();
+    // Points near the small tiles and bricks (the root tile is huge).
+    let mut rng = common::TestRng(5);
+    let pts: Vec<DVec3> = (0..POINTS)
+        .map(|_| {
+            let p = DVec3::new(
+                rng.range(-12.0, 150.0),
+                rng.range(-12.0, 140.0),
+                rng.range(-12.0, 20.0),
+            );
+            g.world_from_index().transform_point3(p)
+        })
+        .collect();
+    let theirs = reference::box_sample_world(&path, "tiles", &pts).unwrap();
+    for (p, b) in pts.iter().zip(&theirs) {
+        let a = g.sample_world(*p);
+        assert!(
+            (a - b).abs() as f64 <= 1e-6 * (b.abs() as f64).max(1e-6),
+            "at {p}: {a} vs {b}"
+        );
+    }
+    let distinct: std::collections::BTreeSet<u32> = theirs.iter().map(|v| v.to_bits()).collect();
+    assert!(distinct.len() > 1000);
+}
+
+#[test]
+fn single_precision_index_path_agrees() {
+    // The renderer's f32 path in index space agrees with the f64 path.
+    let g = generate::cloud(48, 4).unwrap();
+    let (lo, hi) = g.stored_bounds().unwrap();
+    let mut rng = common::TestRng(3);
+    for _ in 0..POINTS {
+        let p = DVec3::new(
+            rng.range(lo.x as f64, hi.x as f64),
+            rng.range(lo.y as f64, hi.y as f64),
+            rng.range(lo.z as f64, hi.z as f64),
+        );
+        let a = g.sample_index(p.as_vec3());
+        let b = g.sample_index_f64(p);
+        assert!((a - b).abs() < 2e-5, "at {p}: {a} vs {b}");
+    }
+}
+
+#[test]
+fn range_in_box_bounds_every_lookup() {
+    // The brick ranges that majorants are built from bound every voxel in
+    // any box, including boxes that straddle tiles, bricks and empty space.
+    let grids = [common::hand_built(), generate::cloud(40, 8).unwrap()];
+    let mut rng = common::TestRng(99);
+    for g in &grids {
+        g.validate().unwrap();
+        let (lo, hi) = g.stored_bounds().unwrap();
+        let (lo, hi) = (lo.max(IVec3::splat(-40)), hi.min(IVec3::splat(200)));
+        for _ in 0..300 {
+            let a = IVec3::new(
+                rng.range(lo.x as f64 - 10.0, hi.x as f64) as i32,
+                rng.range(lo.y as f64 - 10.0, hi.y as f64) as i32,
+                rng.range(lo.z as f64 - 10.0, hi.z as f64) as i32,
+            );
+            let b = a + IVec3::new(
+                rng.range(0.0, 20.0) as i32,
+                rng.range(0.0, 20.0) as i32,
+                rng.range(0.0, 20.0) as i32,
+            );
+            let [mn, mx] = g.range_in_box(a, b).unwrap();
+            let (mut vmin, mut vmax) = (f32::MAX, f32::MIN);
+            for x in a.x..=b.x {
+                for y in a.y..=b.y {
+                    for z in a.z..=b.z {
+                        let v = g.get(IVec3::new(x, y, z));
+                        vmin = vmin.min(v);
+                        vmax = vmax.max(v);
+                    }
+                }
+            }
+            assert!(
+                mn <= vmin && mx >= vmax,
+                "box {a}..{b}: range [{mn}, {mx}] vs values [{vmin}, {vmax}]"
+            );
+        }
+    }
+}
+
+#[test]
+fn real_files_match_box_sampler() {
+    let Some(dir) = common::real_data() else {
+        return;
+    };
+    let mut files = vec![dir.join("cloud96.vdb")];
+    for sub in ["external", "blender_smoke"] {
+        let mut v: Vec<_> = std::fs::read_dir(dir.join(sub))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "vdb"))
+            .collect();
+        v.sort();
+        assert!(!v.is_empty(), "no .vdb files in {sub}");
+        files.extend(v);
+    }
+    for f in &files {
+        compare_file(f);
+    }
+    assert!(files.len() >= 8);
+}
