@@ -80,6 +80,7 @@ fn lookups_per_second(g: &Grid<f32>) -> (f64, usize) {
     }
     std::hint::black_box(sink);
     let coherent = n as f64 / t0.elapsed().as_secs_f64();
+
     println!(
         "         (context: {:.1} M/s plain random reads from a flat array of the same size; {:.1} M/s trilinear samples at the same points sorted)",
         gather / 1e6,

@@ -21,6 +21,12 @@ pub enum Error {
         grid: String,
         message: String,
     },
+    /// Reading or writing an image.
+    #[error(transparent)]
+    Image(#[from] crate::image::ImageError),
+    /// A scene file that cannot be used.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
     /// A command-line argument or option out of range.
     #[error("{0}")]
     Argument(String),

@@ -3,9 +3,22 @@
 //! See ARCHITECTURE.md for how the crate is cut: `vdb` (the OpenVDB bridge)
 //! feeds `grid` (our sparse grid); `generate` makes procedural volumes.
 
+pub mod camera;
 pub mod error;
 pub mod generate;
 pub mod grid;
+pub mod image;
+pub mod integrator;
+pub mod light;
+pub mod medium;
+pub mod phase;
+pub mod sampling;
+pub mod scene;
+pub mod tracking;
 pub mod vdb;
+pub mod world;
 
 pub use error::{Error, Result};
+
+/// Linear RGB radiometric quantities (radiance, coefficients, colours).
+pub type Rgb = glam::Vec3;

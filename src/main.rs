@@ -21,6 +21,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Render a scene (TOML, or JSON by extension) to an EXR, and optionally
+    /// a PNG preview. Command-line values override the scene's.
+    Render(RenderArgs),
     /// Show the grids of a .vdb file (like `vdb_print -l`), with the memory the
     /// Rust grid takes and the load time.
     Info {
@@ -32,6 +35,13 @@ enum Command {
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
+    },
+    /// Compare an image with a reference: means, RMSE, relative MSE, PSNR.
+    Compare {
+        /// The image to judge (EXR).
+        image: PathBuf,
+        /// The reference (EXR).
+        reference: PathBuf,
     },
     /// Write a deterministic procedural volume as a .vdb file.
     Generate {
@@ -47,6 +57,42 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The scene file.
+    scene: PathBuf,
+    /// Output EXR (default: the scene's `output`).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Samples per pixel.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Random seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Image width in pixels.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels.
+    #[arg(long)]
+    height: Option<u32>,
+    /// Also write an 8-bit sRGB PNG preview here.
+    #[arg(long)]
+    preview: Option<PathBuf>,
+    /// Preview exposure in stops.
+    #[arg(long)]
+    exposure: Option<f32>,
+    /// Write AOV layers (direct, indirect, emission, transmittance).
+    #[arg(long)]
+    aovs: bool,
+    /// No progress output.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -241,8 +287,194 @@ fn grid_summary(g: &AnyGrid) -> Summary {
     }
 }
 
+fn render(a: RenderArgs) -> Result<()> {
+    use std::io::IsTerminal;
+    use vdbphoton::integrator::{self, Settings};
+    use vdbphoton::scene::SceneDesc;
+    let t_start = Instant::now();
+    let mut desc = SceneDesc::load(&a.scene)?;
+    let r = &mut desc.render;
+    let cwd = |p: PathBuf| p; // command-line paths are relative to the working directory
+    if let Some(o) = a.output {
+        r.output = cwd(o);
+    }
+    if let Some(p) = a.preview {
+        r.preview = Some(cwd(p));
+    }
+    if let Some(v) = a.spp {
+        r.spp = v;
+    }
+    if let Some(v) = a.seed {
+        r.seed = v;
+    }
+    if let Some(v) = a.width {
+        r.width = v;
+    }
+    if let Some(v) = a.height {
+        r.height = v;
+    }
+    if let Some(v) = a.exposure {
+        r.exposure = v;
+    }
+    r.aovs |= a.aovs;
+    desc.validate().map_err(|e| {
+        Error::Argument(format!(
+            "{}: after the command-line options: {e}",
+            a.scene.display()
+        ))
+    })?;
+    if !desc.render.integrator.is_available() {
+        return Err(Error::Argument(format!(
+            "{}: integrator '{}' is not available yet (use \"path\")",
+            a.scene.display(),
+            desc.render.integrator.name()
+        )));
+    }
+    if let Some(t) = a.threads {
+        if t == 0 {
+            return Err(Error::Argument("--threads must be at least 1".into()));
+        }
+    }
+    let world = vdbphoton::world::World::load(&desc)?;
+    for w in &world.warnings {
+        eprintln!("vdbphoton: warning: {w}");
+    }
+    let r = &desc.render;
+    let settings = Settings {
+        width: r.width,
+        height: r.height,
+        spp: r.spp,
+        seed: r.seed,
+        max_bounces: r.max_bounces,
+    };
+    let quiet = a.quiet;
+    let tty = std::io::stderr().is_terminal();
+    let t_render = Instant::now();
+    let last_decile = std::sync::atomic::AtomicUsize::new(0);
+    let progress = |done: usize, total: usize| {
+        if quiet {
+            return;
+        }
+        let frac = done as f64 / total as f64;
+        let el = t_render.elapsed().as_secs_f64();
+        let eta = if done > 0 { el / frac - el } else { 0.0 };
+        if tty {
+            let n = (frac * 30.0) as usize;
+            eprint!(
+                "\rrendering [{}{}] {:5.1}%  {:.0}s elapsed, ETA {:.0}s ",
+                "#".repeat(n),
+                " ".repeat(30 - n),
+                frac * 100.0,
+                el,
+                eta
+            );
+            if done == total {
+                eprintln!();
+            }
+        } else {
+            let decile = (frac * 10.0) as usize;
+            if decile > last_decile.fetch_max(decile, std::sync::atomic::Ordering::Relaxed) {
+                eprintln!(
+                    "rendering: {:3.0}% ({el:.1} s elapsed, ETA {eta:.1} s)",
+                    decile as f64 * 10.0
+                );
+            }
+        }
+    };
+    let film = match a.threads {
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map_err(|e| Error::Argument(format!("cannot start {t} threads: {e}")))?
+            .install(|| integrator::render(&world, &settings, &progress)),
+        None => integrator::render(&world, &settings, &progress),
+    };
+    let render_s = t_render.elapsed().as_secs_f64();
+    let t_write = Instant::now();
+    let (w, h) = (film.width as usize, film.height as usize);
+    let alpha: Vec<f32> = film
+        .transmittance
+        .iter()
+        .map(|t| (1.0 - t).clamp(0.0, 1.0))
+        .collect();
+    let attrs = vec![
+        (
+            "vdbphoton/version".to_string(),
+            env!("CARGO_PKG_VERSION").to_string(),
+        ),
+        (
+            "vdbphoton/integrator".to_string(),
+            r.integrator.name().to_string(),
+        ),
+        ("vdbphoton/spp".to_string(), r.spp.to_string()),
+        ("vdbphoton/seed".to_string(), r.seed.to_string()),
+        (
+            "vdbphoton/max_bounces".to_string(),
+            r.max_bounces.to_string(),
+        ),
+        ("vdbphoton/scene".to_string(), a.scene.display().to_string()),
+    ];
+    let aovs = if r.aovs {
+        vec![
+            vdbphoton::image::Aov {
+                name: "direct",
+                rgb: Some(&film.direct),
+                gray: None,
+            },
+            vdbphoton::image::Aov {
+                name: "indirect",
+                rgb: Some(&film.indirect),
+                gray: None,
+            },
+            vdbphoton::image::Aov {
+                name: "emission",
+                rgb: Some(&film.emission),
+                gray: None,
+            },
+            vdbphoton::image::Aov {
+                name: "transmittance",
+                rgb: None,
+                gray: Some(&film.transmittance),
+            },
+        ]
+    } else {
+        Vec::new()
+    };
+    vdbphoton::image::write_exr(&r.output, w, h, &film.rgb, &alpha, &aovs, &attrs)?;
+    if let Some(p) = &r.preview {
+        vdbphoton::image::write_png(p, w, h, &film.rgb, r.exposure)?;
+    }
+    if !quiet {
+        eprintln!(
+            "wrote {}{}  (load {:.2} s, render {:.2} s, write {:.2} s, total {:.2} s; {} x {}, {} spp, {} threads)",
+            r.output.display(),
+            r.preview.as_ref().map(|p| format!(" and {}", p.display())).unwrap_or_default(),
+            world.load_seconds,
+            render_s,
+            t_write.elapsed().as_secs_f64(),
+            t_start.elapsed().as_secs_f64(),
+            w,
+            h,
+            r.spp,
+            a.threads.unwrap_or_else(rayon::current_num_threads)
+        );
+    }
+    Ok(())
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Render(a) => render(a),
+        Command::Compare { image, reference } => {
+            let a = vdbphoton::image::read_exr_rgb(&image)?;
+            let b = vdbphoton::image::read_exr_rgb(&reference)?;
+            let m = vdbphoton::image::compare(&a, &b)?;
+            println!(
+                "mean {:.6}  reference mean {:.6}  ratio {:.5}  RMSE {:.6}  relMSE {:.3e}  PSNR {:.2} dB",
+                m.mean, m.mean_reference, m.mean_ratio, m.rmse, m.rel_mse, m.psnr
+            );
+            Ok(())
+        }
         Command::Info { file, grid, json } => info(file, grid, json),
         Command::Generate {
             kind,

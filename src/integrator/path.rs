@@ -1,0 +1,206 @@
+//! The reference integrator: volumetric path tracing, deliberately simple so
+//! that it is obviously right (pbrt-v4's `SimpleVolPathIntegrator` and
+//! `VolPathIntegrator`, §14.2). It is the ground truth the photon mapper is
+//! measured against.
+//!
+//! - Free flights by delta tracking against the majorant grid
+//!   ([`tracking::sample_t_maj`]). At each tentative collision with majorant
+//!   σ̄ the path adds emission β·σa·Le/σ̄ and then chooses absorption,
+//!   real scattering or a null collision with probabilities avg(σa)/σ̄,
+//!   avg(σs)/σ̄ and avg(σn)/σ̄ (σn = σ̄ − σt), dividing β by the chosen
+//!   probability: unbiased for RGB coefficients, and classic delta tracking
+//!   (weights of 1) for grey media (Galtier et al. 2013; Novák et al. 2014).
+//! - Next-event estimation to every light at every real scattering event,
+//!   with ratio-tracked transmittance; multiple importance sampling (power
+//!   heuristic, Veach 1997) between light and phase sampling for the lights
+//!   that rays can hit (the environment and finite suns).
+//! - Russian roulette on the throughput after three scattering events;
+//!   `max_bounces` real scattering events at most.
+
+use super::{SampleResult, Settings};
+use crate::light::Light;
+use crate::medium::Media;
+use crate::sampling::{power_heuristic, Rng};
+use crate::tracking::{self, sample_t_maj};
+use crate::world::World;
+use crate::Rgb;
+use glam::Vec3;
+
+/// Scattering events after which Russian roulette starts.
+const RR_DEPTH: u32 = 3;
+
+#[inline]
+fn avg(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) * (1.0 / 3.0)
+}
+
+/// Light arriving at `p` along each light's sample, times the phase
+/// function and the transmittance, for NEE from a scattering event.
+fn direct_light(
+    world: &World,
+    media: &Media,
+    p: Vec3,
+    wo: Vec3,
+    phase: &crate::phase::PhaseFunction,
+    rng: &mut Rng,
+) -> Rgb {
+    let mut l = Rgb::ZERO;
+    for light in &world.lights {
+        let u = rng.next_vec2();
+        let Some(ls) = light.sample_li(p, u) else {
+            continue;
+        };
+        if ls.li.max_element() <= 0.0 {
+            continue;
+        }
+        let f = phase.eval(wo, ls.wi);
+        if f <= 0.0 {
+            continue;
+        }
+        let tr = tracking::transmittance(media, p, ls.wi, ls.dist, rng);
+        if tr.max_element() <= 0.0 {
+            continue;
+        }
+        let w = if ls.is_delta {
+            1.0
+        } else {
+            power_heuristic(1, ls.pdf, 1, phase.pdf(wo, ls.wi))
+        };
+        l += ls.li * tr * (f * w / ls.pdf);
+    }
+    if !world.environment.is_black() {
+        if let Some((wi, le, pdf)) = world.environment.sample(rng.next_vec2()) {
+            if pdf > 0.0 && le.max_element() > 0.0 {
+                let f = phase.eval(wo, wi);
+                if f > 0.0 {
+                    let tr = tracking::transmittance(media, p, wi, f32::INFINITY, rng);
+                    let w = power_heuristic(1, pdf, 1, phase.pdf(wo, wi));
+                    l += le * tr * (f * w / pdf);
+                }
+            }
+        }
+    }
+    l
+}
+
+/// Radiance that a phase-sampled ray leaving the volumes receives from the
+/// environment and the finite suns, MIS-weighted against light sampling.
+fn escaped(world: &World, w: Vec3, phase_pdf: f32) -> Rgb {
+    let mut l = Rgb::ZERO;
+    if !world.environment.is_black() {
+        let le = world.environment.le(w);
+        let pdf = world.environment.pdf(w);
+        l += le * power_heuristic(1, phase_pdf, 1, pdf);
+    }
+    for light in &world.lights {
+        if let Light::Sun { .. } = light {
+            let (le, pdf) = light.le_escaped(w);
+            if pdf > 0.0 {
+                l += le * power_heuristic(1, phase_pdf, 1, pdf);
+            }
+        }
+    }
+    l
+}
+
+/// One camera path from `o` in direction `d`.
+pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng) -> SampleResult {
+    let media = &world.media;
+    let mut res = SampleResult::default();
+    let mut beta = Rgb::ONE;
+    let mut ray_o = o;
+    let mut ray_d = d;
+    let mut depth = 0u32; // real scattering events so far
+    let mut last_phase_pdf = 0.0f32;
+    loop {
+        let mut scattered = false;
+        let mut terminated = false;
+        let mut new_dir = ray_d;
+        let mut new_o = ray_o;
+        let mut new_pdf = 0.0;
+        sample_t_maj(media, ray_o, ray_d, f32::INFINITY, rng, |c, rng| {
+            let m = &c.medium;
+            if m.emission.max_element() > 0.0 {
+                let e = beta * m.emission / c.sigma_maj;
+                res.l += e;
+                res.emission += e;
+            }
+            let p_a = avg(m.sigma_a) / c.sigma_maj;
+            let p_s = avg(m.sigma_s) / c.sigma_maj;
+            let u = rng.next_f32();
+            if u < p_a {
+                terminated = true;
+                return false;
+            }
+            if u < p_a + p_s {
+                depth += 1;
+                if depth > settings.max_bounces {
+                    terminated = true;
+                    return false;
+                }
+                beta *= m.sigma_s / (c.sigma_maj * p_s);
+                let wo = -ray_d;
+                let phase = media.phase_at(c.p, rng.next_f32());
+                let ld = beta * direct_light(world, media, c.p, wo, &phase, rng);
+                res.l += ld;
+                if depth == 1 {
+                    res.direct += ld;
+                } else {
+                    res.indirect += ld;
+                }
+                match phase.sample(wo, rng.next_vec2()) {
+                    Some(ps) if ps.pdf > 0.0 => {
+                        beta *= ps.p / ps.pdf;
+                        new_dir = ps.wi;
+                        new_o = c.p;
+                        new_pdf = ps.pdf;
+                        scattered = true;
+                    }
+                    _ => terminated = true,
+                }
+                return false;
+            }
+            // Null collision.
+            let sigma_n = (Rgb::splat(c.sigma_maj) - m.sigma_t()).max(Rgb::ZERO);
+            let p_n = avg(sigma_n) / c.sigma_maj;
+            if p_n <= 0.0 {
+                terminated = true;
+                return false;
+            }
+            beta *= sigma_n / (c.sigma_maj * p_n);
+            true
+        });
+        if terminated {
+            break;
+        }
+        if !scattered {
+            // The path left every volume.
+            if depth == 0 {
+                res.l += beta * world.environment.le(ray_d);
+            } else {
+                let e = beta * escaped(world, ray_d, last_phase_pdf);
+                res.l += e;
+                if depth == 1 {
+                    res.direct += e;
+                } else {
+                    res.indirect += e;
+                }
+            }
+            break;
+        }
+        ray_o = new_o;
+        ray_d = new_dir;
+        last_phase_pdf = new_pdf;
+        if depth >= RR_DEPTH {
+            let q = (1.0 - beta.max_element()).max(0.05);
+            if rng.next_f32() < q {
+                break;
+            }
+            beta /= 1.0 - q;
+        }
+        if !beta.is_finite() {
+            break;
+        }
+    }
+    res
+}

@@ -1,0 +1,338 @@
+//! Light sources: sun (delta or of finite angular diameter), point, spot, and
+//! the environment (constant or an equirectangular HDR map, importance
+//! sampled).
+//!
+//! Conventions, as in Blender/Cycles (checked in `shared/REFERENCE.md`):
+//! - a sun's `irradiance` E is W/m² on a surface facing it. With angular
+//!   diameter θ > 0 it is a uniform disk of radiance L = E / (π sin²(θ/2)),
+//!   which gives exactly E on a surface facing it (∫ L cos dω over the cone);
+//! - point and spot `intensity` is W/sr (radiant intensity on the axis);
+//! - a spot's cone is its full angle; `blend` softens the edge with
+//!   smoothstep over the outer `blend` fraction of (1 − cos(half angle)), as
+//!   Cycles' `spot_attenuation`;
+//! - the environment map is equirectangular, Z up, with Blender's mapping
+//!   u = atan2(y, −x)/(2π) + ½, v = atan2(z, hypot(x, y))/π + ½, rotated
+//!   about +Z by `rotate_z`.
+
+use crate::sampling::{self, Distribution2D};
+use crate::Rgb;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// A light sample seen from a point.
+#[derive(Debug, Clone, Copy)]
+pub struct LightSample {
+    /// Unit direction from the point towards the light.
+    pub wi: Vec3,
+    /// Incident radiance (for delta lights: irradiance-like, the value that
+    /// multiplies the phase function directly).
+    pub li: Rgb,
+    /// Solid-angle density of `wi` (1 for delta lights).
+    pub pdf: f32,
+    /// Distance to the light (infinite for distant lights).
+    pub dist: f32,
+    pub is_delta: bool,
+}
+
+#[derive(Debug, Clone)]
+pub enum Light {
+    Sun {
+        /// Unit, towards the light.
+        dir: Vec3,
+        /// Irradiance for a delta sun, radiance for a disk.
+        value: Rgb,
+        /// cos of the half angle (1 for a delta sun).
+        cos_max: f32,
+        frame: (Vec3, Vec3),
+    },
+    Point {
+        position: Vec3,
+        intensity: Rgb,
+    },
+    Spot {
+        position: Vec3,
+        /// Unit cone axis, from the light into the scene.
+        axis: Vec3,
+        intensity: Rgb,
+        cos_half: f32,
+        /// Width of the smooth edge in cos units.
+        smooth: f32,
+    },
+}
+
+impl Light {
+    pub fn sun(direction: Vec3, irradiance: Rgb, angle_deg: f32) -> Self {
+        let dir = direction.normalize();
+        let half = (angle_deg.to_radians() * 0.5).clamp(0.0, PI * 0.5);
+        let frame = sampling::coordinate_system(dir);
+        if half <= 0.0 {
+            Light::Sun {
+                dir,
+                value: irradiance,
+                cos_max: 1.0,
+                frame,
+            }
+        } else {
+            let s = half.sin();
+            Light::Sun {
+                dir,
+                value: irradiance / (PI * s * s),
+                cos_max: half.cos(),
+                frame,
+            }
+        }
+    }
+
+    pub fn spot(
+        position: Vec3,
+        direction: Vec3,
+        intensity: Rgb,
+        cone_deg: f32,
+        blend: f32,
+    ) -> Self {
+        let cos_half = (cone_deg.to_radians() * 0.5).cos();
+        Light::Spot {
+            position,
+            axis: direction.normalize(),
+            intensity,
+            cos_half,
+            smooth: (1.0 - cos_half) * blend.clamp(0.0, 1.0),
+        }
+    }
+
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Light::Sun { cos_max, .. } => *cos_max >= 1.0,
+            _ => true,
+        }
+    }
+
+    /// Samples a direction towards the light from `p`.
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match *self {
+            Light::Sun {
+                dir,
+                value,
+                cos_max,
+                frame,
+            } => {
+                if cos_max >= 1.0 {
+                    return Some(LightSample {
+                        wi: dir,
+                        li: value,
+                        pdf: 1.0,
+                        dist: f32::INFINITY,
+                        is_delta: true,
+                    });
+                }
+                let local = sampling::sample_uniform_cone(u, cos_max);
+                let wi = (frame.0 * local.x + frame.1 * local.y + dir * local.z).normalize();
+                Some(LightSample {
+                    wi,
+                    li: value,
+                    pdf: sampling::uniform_cone_pdf(cos_max),
+                    dist: f32::INFINITY,
+                    is_delta: false,
+                })
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let v = position - p;
+                let d2 = v.length_squared();
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                Some(LightSample {
+                    wi: v / dist,
+                    li: intensity / d2,
+                    pdf: 1.0,
+                    dist,
+                    is_delta: true,
+                })
+            }
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cos_half,
+                smooth,
+            } => {
+                let v = position - p;
+                let d2 = v.length_squared();
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                let wi = v / dist;
+                let cos = (-wi).dot(axis);
+                if cos <= cos_half {
+                    return None;
+                }
+                let t = cos - cos_half;
+                let falloff = if smooth > 0.0 && t < smooth {
+                    let x = t / smooth;
+                    x * x * (3.0 - 2.0 * x)
+                } else {
+                    1.0
+                };
+                Some(LightSample {
+                    wi,
+                    li: intensity * (falloff / d2),
+                    pdf: 1.0,
+                    dist,
+                    is_delta: true,
+                })
+            }
+        }
+    }
+
+    /// Radiance a ray leaving the scene in direction `w` receives from this
+    /// light, and the solid-angle density `sample_li` has for `w` (for MIS).
+    /// Zero for delta lights (no ray can hit them).
+    pub fn le_escaped(&self, w: Vec3) -> (Rgb, f32) {
+        match *self {
+            Light::Sun {
+                dir,
+                value,
+                cos_max,
+                ..
+            } if cos_max < 1.0 && w.dot(dir) >= cos_max => {
+                (value, sampling::uniform_cone_pdf(cos_max))
+            }
+            _ => (Rgb::ZERO, 0.0),
+        }
+    }
+}
+
+/// What rays that leave every volume see.
+#[derive(Debug, Clone)]
+pub enum Environment {
+    Constant(Rgb),
+    Map(Box<EnvMap>),
+}
+
+/// An equirectangular HDR environment, importance sampled by luminance times
+/// sin θ (the Jacobian of the lat-long mapping; pbrt-v4 §12.5.2).
+#[derive(Debug, Clone)]
+pub struct EnvMap {
+    width: usize,
+    height: usize,
+    texels: Vec<Rgb>,
+    distribution: Distribution2D,
+    /// Radians, about +Z.
+    rotate_z: f32,
+}
+
+fn luminance(c: Rgb) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+impl EnvMap {
+    /// `texels` row-major, top row first (v = 1 at the top, +Z up), already
+    /// multiplied by the strength.
+    pub fn new(width: usize, height: usize, texels: Vec<Rgb>, rotate_z_deg: f32) -> Self {
+        let mut f = Vec::with_capacity(width * height);
+        for y in 0..height {
+            // Row y covers polar angle θ from y/h·π to (y+1)/h·π (top = +Z).
+            let sin_theta = ((y as f32 + 0.5) / height as f32 * PI).sin();
+            for x in 0..width {
+                f.push(luminance(texels[y * width + x]).max(0.0) * sin_theta);
+            }
+        }
+        let distribution = Distribution2D::new(&f, width, height);
+        Self {
+            width,
+            height,
+            texels,
+            distribution,
+            rotate_z: rotate_z_deg.to_radians(),
+        }
+    }
+
+    /// Map coordinates (u right, v down from the top) of a world direction.
+    fn uv(&self, w: Vec3) -> Vec2 {
+        let (s, c) = (-self.rotate_z).sin_cos();
+        let x = c * w.x - s * w.y;
+        let y = s * w.x + c * w.y;
+        let u = y.atan2(-x) / (2.0 * PI) + 0.5;
+        let v = w.z.atan2(x.hypot(y)) / PI + 0.5;
+        Vec2::new(u.rem_euclid(1.0), (1.0 - v).clamp(0.0, 1.0))
+    }
+
+    fn direction(&self, uv: Vec2) -> Vec3 {
+        let phi = (uv.x - 0.5) * 2.0 * PI;
+        let elevation = (0.5 - uv.y) * PI;
+        // Inverse of uv(): atan2(y, -x) = phi.
+        let (sp, cp) = phi.sin_cos();
+        let (se, ce) = elevation.sin_cos();
+        let x = -cp * ce;
+        let y = sp * ce;
+        let (s, c) = self.rotate_z.sin_cos();
+        Vec3::new(c * x - s * y, s * x + c * y, se)
+    }
+
+    fn lookup(&self, uv: Vec2) -> Rgb {
+        let x = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let y = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        self.texels[y * self.width + x]
+    }
+}
+
+impl Environment {
+    pub fn is_black(&self) -> bool {
+        match self {
+            Environment::Constant(c) => c.max_element() <= 0.0,
+            Environment::Map(_) => false,
+        }
+    }
+
+    /// Radiance arriving from direction `w` (pointing away from the scene).
+    pub fn le(&self, w: Vec3) -> Rgb {
+        match self {
+            Environment::Constant(c) => *c,
+            Environment::Map(m) => m.lookup(m.uv(w)),
+        }
+    }
+
+    /// Samples a direction; returns (w, radiance, solid-angle pdf).
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, Rgb, f32)> {
+        match self {
+            Environment::Constant(c) => Some((
+                sampling::sample_uniform_sphere(u),
+                *c,
+                sampling::uniform_sphere_pdf(),
+            )),
+            Environment::Map(m) => {
+                let (uv, pdf_uv) = m.distribution.sample(u);
+                if pdf_uv <= 0.0 {
+                    return None;
+                }
+                let theta = uv.y * PI;
+                let sin_theta = theta.sin();
+                if sin_theta <= 0.0 {
+                    return None;
+                }
+                let w = m.direction(uv);
+                Some((w, m.lookup(uv), pdf_uv / (2.0 * PI * PI * sin_theta)))
+            }
+        }
+    }
+
+    /// Solid-angle density of `sample` for direction `w`.
+    pub fn pdf(&self, w: Vec3) -> f32 {
+        match self {
+            Environment::Constant(_) => sampling::uniform_sphere_pdf(),
+            Environment::Map(m) => {
+                let uv = m.uv(w);
+                let sin_theta = (uv.y * PI).sin();
+                if sin_theta <= 0.0 {
+                    return 0.0;
+                }
+                m.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)
+            }
+        }
+    }
+}

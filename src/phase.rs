@@ -1,0 +1,223 @@
+//! Phase functions: isotropic, Henyey–Greenstein, Schlick, and weighted
+//! mixtures of Henyey–Greenstein lobes. Each evaluates, samples exactly, and
+//! gives its density (equal to its value: all are sampled by inverting their
+//! CDF).
+//!
+//! # Direction convention (the one place it is written)
+//! Both `wo` and `wi` are unit vectors pointing **away** from the scattering
+//! point: `wo` towards where the light goes (for a camera path: back towards
+//! the camera, minus the camera ray's direction), `wi` towards where it comes
+//! from (the light). A phase function depends only on cos = dot(wo, wi).
+//! Light travelling along `-wi` goes on along `wo`, so forward scattering
+//! (g > 0) means `wo ≈ -wi`, cos ≈ −1: the convention of pbrt-v4 (§11.3)
+//! and Mitsuba 3. A photon travelling along `d` and scattered into `d'` has
+//! `wi = -d`, `wo = d'`; [`PhaseFunction::sample_travel`] does that mapping.
+//!
+//! The mean cosine of the scattering angle (between the old and new
+//! directions of travel) is `g` for Henyey–Greenstein.
+
+use crate::sampling::{coordinate_system, spherical_direction};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+const INV_4PI: f32 = 1.0 / (4.0 * PI);
+
+/// Largest |g| (and |k|) used: at ±1 the functions become Dirac deltas, and
+/// in f32 their normalisation breaks down well before.
+pub const MAX_G: f32 = 0.999;
+
+/// Henyey & Greenstein 1941, "Diffuse radiation in the galaxy", with
+/// cos = dot(wo, wi) (so g > 0 peaks at cos = −1, forward).
+#[inline]
+pub fn henyey_greenstein(cos: f32, g: f32) -> f32 {
+    let denom = 1.0 + g * g + 2.0 * g * cos;
+    INV_4PI * (1.0 - g * g) / (denom * denom.max(0.0).sqrt()).max(f32::MIN_POSITIVE)
+}
+
+/// Schlick's approximation (Blasi, Le Saëc & Schlick 1993):
+/// (1 − k²) / (4π (1 + k cos)²), cos = dot(wo, wi).
+#[inline]
+pub fn schlick(cos: f32, k: f32) -> f32 {
+    let d = 1.0 + k * cos;
+    INV_4PI * (1.0 - k * k) / (d * d).max(f32::MIN_POSITIVE)
+}
+
+/// k of the Schlick function whose shape matches HG(g): k = 1.55 g − 0.55 g³
+/// (Pharr, Jakob & Humphreys, pbrt 3rd ed. §15.2.3 note; Blasi et al. 1993
+/// fit k ≈ 1.5 g − 0.5 g³, the 1.55/0.55 refinement is the common one).
+pub fn schlick_k_from_g(g: f32) -> f32 {
+    (1.55 * g - 0.55 * g * g * g).clamp(-MAX_G, MAX_G)
+}
+
+/// Up to four HG lobes with weights summing to one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HgMix {
+    g: [f32; 4],
+    w: [f32; 4],
+    n: usize,
+}
+
+impl HgMix {
+    /// `lobes` as (g, weight); weights ≥ 0 with a positive sum, normalised
+    /// here.
+    pub fn new(lobes: &[(f32, f32)]) -> Result<Self, String> {
+        if lobes.is_empty() || lobes.len() > 4 {
+            return Err(format!("an HG mix needs 1 to 4 lobes, not {}", lobes.len()));
+        }
+        let sum: f32 = lobes.iter().map(|l| l.1).sum();
+        if lobes
+            .iter()
+            .any(|l| l.1.is_nan() || l.1 < 0.0 || !l.0.is_finite() || l.0.abs() > 1.0)
+            || sum.is_nan()
+            || sum <= 0.0
+        {
+            return Err("HG mix lobes need |g| ≤ 1 and weights ≥ 0 with a positive sum".into());
+        }
+        let mut m = HgMix {
+            g: [0.0; 4],
+            w: [0.0; 4],
+            n: lobes.len(),
+        };
+        for (i, (g, w)) in lobes.iter().enumerate() {
+            m.g[i] = g.clamp(-MAX_G, MAX_G);
+            m.w[i] = w / sum;
+        }
+        Ok(m)
+    }
+    pub fn lobes(&self) -> impl Iterator<Item = (f32, f32)> + '_ {
+        (0..self.n).map(|i| (self.g[i], self.w[i]))
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PhaseFunction {
+    Isotropic,
+    HenyeyGreenstein { g: f32 },
+    Schlick { k: f32 },
+    HgMix(HgMix),
+}
+
+/// A sampled direction.
+#[derive(Debug, Clone, Copy)]
+pub struct PhaseSample {
+    pub wi: Vec3,
+    /// Value of the phase function.
+    pub p: f32,
+    /// Solid-angle density (equal to `p`).
+    pub pdf: f32,
+}
+
+/// cos θ between `wo` and the sampled `wi` for an HG lobe, by inverting its
+/// CDF (pbrt-v4 `SampleHenyeyGreenstein`).
+#[inline]
+fn sample_hg_cos(g: f32, u: f32) -> f32 {
+    if g.abs() < 1e-3 {
+        return 1.0 - 2.0 * u;
+    }
+    let s = (1.0 - g * g) / (1.0 + g - 2.0 * g * u);
+    (-1.0 / (2.0 * g) * (1.0 + g * g - s * s)).clamp(-1.0, 1.0)
+}
+
+#[inline]
+fn sample_schlick_cos(k: f32, u: f32) -> f32 {
+    if k.abs() < 1e-4 {
+        return 2.0 * u - 1.0;
+    }
+    // Inverse of F(c) = (1 − k²)/(2k) [1/(1 − k) − 1/(1 + k c)].
+    let s = (1.0 - k * k) / (1.0 + k - 2.0 * k * u);
+    ((s - 1.0) / k).clamp(-1.0, 1.0)
+}
+
+impl PhaseFunction {
+    pub fn hg(g: f32) -> Self {
+        PhaseFunction::HenyeyGreenstein {
+            g: g.clamp(-MAX_G, MAX_G),
+        }
+    }
+    pub fn schlick_from_g(g: f32) -> Self {
+        PhaseFunction::Schlick {
+            k: schlick_k_from_g(g),
+        }
+    }
+    pub fn hg_mix(lobes: &[(f32, f32)]) -> Result<Self, String> {
+        HgMix::new(lobes).map(PhaseFunction::HgMix)
+    }
+
+    /// p(wo, wi) in sr⁻¹.
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let cos = wo.dot(wi);
+        match *self {
+            PhaseFunction::Isotropic => INV_4PI,
+            PhaseFunction::HenyeyGreenstein { g } => henyey_greenstein(cos, g),
+            PhaseFunction::Schlick { k } => schlick(cos, k),
+            PhaseFunction::HgMix(m) => m.lobes().map(|(g, w)| w * henyey_greenstein(cos, g)).sum(),
+        }
+    }
+
+    /// Density of [`sample`](Self::sample) for `wi`: equal to `eval`.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval(wo, wi)
+    }
+
+    /// Samples `wi` given `wo` from two uniform numbers.
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<PhaseSample> {
+        let (cos, phi) = match *self {
+            PhaseFunction::Isotropic => (1.0 - 2.0 * u.x, 2.0 * PI * u.y),
+            PhaseFunction::HenyeyGreenstein { g } => (sample_hg_cos(g, u.x), 2.0 * PI * u.y),
+            PhaseFunction::Schlick { k } => (sample_schlick_cos(k, u.x), 2.0 * PI * u.y),
+            PhaseFunction::HgMix(m) => {
+                // Choose the lobe with u.x, then reuse the remainder.
+                let mut x = u.x;
+                let mut g = m.g[m.n - 1];
+                for i in 0..m.n {
+                    if x < m.w[i] || i == m.n - 1 {
+                        g = m.g[i];
+                        x = if m.w[i] > 0.0 {
+                            (x / m.w[i]).min(1.0 - f32::EPSILON)
+                        } else {
+                            0.5
+                        };
+                        break;
+                    }
+                    x -= m.w[i];
+                }
+                (sample_hg_cos(g, x), 2.0 * PI * u.y)
+            }
+        };
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let (t, b) = coordinate_system(wo);
+        let wi = spherical_direction(sin, cos, phi, (t, b, wo));
+        let p = self.eval(wo, wi);
+        (p > 0.0).then_some(PhaseSample { wi, p, pdf: p })
+    }
+
+    /// For a particle travelling along `d`: samples its new direction of
+    /// travel, with the phase value (= density).
+    #[inline]
+    pub fn sample_travel(&self, d: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
+        // wi = -d and the new direction is wo. These functions depend on
+        // dot(wo, wi) only, so sampling wo given wi is sampling with the
+        // roles swapped: the sample's `wi` is the new direction of travel.
+        self.sample(-d, u).map(|s| (s.wi, s.p))
+    }
+
+    /// Mean cosine of the scattering angle (old vs new direction of travel).
+    pub fn mean_cosine(&self) -> f32 {
+        match *self {
+            PhaseFunction::Isotropic => 0.0,
+            PhaseFunction::HenyeyGreenstein { g } => g,
+            PhaseFunction::Schlick { k } => {
+                if k.abs() < 1e-3 {
+                    2.0 * k / 3.0
+                } else {
+                    let k = k as f64;
+                    (1.0 / k - (1.0 - k * k) / (2.0 * k * k) * ((1.0 + k) / (1.0 - k)).ln()) as f32
+                }
+            }
+            PhaseFunction::HgMix(m) => m.lobes().map(|(g, w)| g * w).sum(),
+        }
+    }
+}

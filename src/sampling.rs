@@ -1,0 +1,259 @@
+//! Random numbers and the warps that turn them into directions.
+//!
+//! [`Rng`] is a counter-based stream keyed by (seed, stream, index): a camera
+//! sample uses (seed, pixel, sample), a photon (seed, pass, photon index), so
+//! results never depend on which thread ran what.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// SplitMix64's finaliser (Steele, Lea & Flood 2014): a bijective 64-bit
+/// mix with good avalanche, used to derive stream states from keys.
+#[inline]
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// PCG32 (O'Neill 2014) seeded from hashed keys: a deterministic stream per
+/// (seed, stream, index).
+#[derive(Debug, Clone)]
+pub struct Rng {
+    state: u64,
+    inc: u64,
+}
+
+impl Rng {
+    pub fn new(seed: u64, stream: u64, index: u64) -> Self {
+        let a = mix64(seed ^ mix64(stream.wrapping_add(0x9E37_79B9_7F4A_7C15)));
+        let b = mix64(a ^ mix64(index.wrapping_mul(0xD1B5_4A32_D192_ED03).wrapping_add(1)));
+        let mut r = Rng {
+            state: 0,
+            inc: (mix64(b ^ 0x5851_F42D_4C95_7F2D) << 1) | 1,
+        };
+        r.next_u32();
+        r.state = r.state.wrapping_add(b);
+        r.next_u32();
+        r
+    }
+
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in [0, 1): 24 random bits, so never 1.0.
+    #[inline]
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    #[inline]
+    pub fn next_vec2(&mut self) -> Vec2 {
+        Vec2::new(self.next_f32(), self.next_f32())
+    }
+}
+
+/// Two unit vectors completing `n` (unit) to an orthonormal basis, without
+/// branches on the sign (Duff et al. 2017, "Building an Orthonormal Basis,
+/// Revisited").
+#[inline]
+pub fn coordinate_system(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// `sin θ, cos θ, φ` in the frame (t, b, n).
+#[inline]
+pub fn spherical_direction(
+    sin_theta: f32,
+    cos_theta: f32,
+    phi: f32,
+    frame: (Vec3, Vec3, Vec3),
+) -> Vec3 {
+    let (s, c) = phi.sin_cos();
+    frame.0 * (sin_theta * c) + frame.1 * (sin_theta * s) + frame.2 * cos_theta
+}
+
+#[inline]
+pub fn sample_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+#[inline]
+pub fn uniform_sphere_pdf() -> f32 {
+    1.0 / (4.0 * PI)
+}
+
+/// Uniform direction in the cone of half-angle acos(`cos_max`) around +Z.
+#[inline]
+pub fn sample_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos_theta = (1.0 - u.x) + u.x * cos_max;
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let phi = u.y * 2.0 * PI;
+    Vec3::new(phi.cos() * sin_theta, phi.sin() * sin_theta, cos_theta)
+}
+
+#[inline]
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}
+
+/// Concentric map of the square to the unit disk (Shirley & Chiu 1997).
+pub fn sample_uniform_disk_concentric(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, PI / 4.0 * (o.y / o.x))
+    } else {
+        (o.y, PI / 2.0 - PI / 4.0 * (o.x / o.y))
+    };
+    Vec2::new(theta.cos(), theta.sin()) * r
+}
+
+/// Veach's power heuristic with β = 2.
+#[inline]
+pub fn power_heuristic(nf: u32, f_pdf: f32, ng: u32, g_pdf: f32) -> f32 {
+    let f = nf as f32 * f_pdf;
+    let g = ng as f32 * g_pdf;
+    if f.is_infinite() {
+        return 1.0;
+    }
+    if f == 0.0 && g == 0.0 {
+        return 0.0;
+    }
+    (f * f) / (f * f + g * g)
+}
+
+/// A piecewise-constant density on [0, 1) (pbrt-v4 §A.4.1).
+#[derive(Debug, Clone)]
+pub struct Distribution1D {
+    func: Vec<f32>,
+    cdf: Vec<f32>,
+    integral: f32,
+}
+
+impl Distribution1D {
+    /// `f` must be non-negative; an all-zero `f` becomes uniform.
+    pub fn new(f: &[f32]) -> Self {
+        let n = f.len().max(1);
+        let mut func: Vec<f32> = f.iter().map(|v| v.max(0.0)).collect();
+        if func.is_empty() {
+            func.push(0.0);
+        }
+        let mut cdf = vec![0.0f32; n + 1];
+        for i in 0..n {
+            cdf[i + 1] = cdf[i] + func[i] / n as f32;
+        }
+        let integral = cdf[n];
+        if integral <= 0.0 {
+            for (i, c) in cdf.iter_mut().enumerate() {
+                *c = i as f32 / n as f32;
+            }
+            func.iter_mut().for_each(|v| *v = 1.0);
+        } else {
+            cdf.iter_mut().for_each(|c| *c /= integral);
+        }
+        Self {
+            func,
+            cdf,
+            integral: integral.max(0.0),
+        }
+    }
+
+    pub fn count(&self) -> usize {
+        self.func.len()
+    }
+
+    /// The integral of the (clamped) function over [0, 1).
+    pub fn integral(&self) -> f32 {
+        self.integral
+    }
+
+    /// A sample in [0, 1), its density, and its bin.
+    pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
+        let n = self.func.len();
+        // Last bin whose cdf start is ≤ u.
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(n - 1);
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let du = if width > 0.0 {
+            (u - self.cdf[i]) / width
+        } else {
+            0.5
+        };
+        let pdf = if self.integral > 0.0 {
+            self.func[i] / self.integral
+        } else {
+            1.0
+        };
+        (
+            ((i as f32 + du.clamp(0.0, 1.0)) / n as f32).min(1.0 - f32::EPSILON),
+            pdf,
+            i,
+        )
+    }
+
+    /// Density at `x` ∈ [0, 1).
+    pub fn pdf(&self, x: f32) -> f32 {
+        let n = self.func.len();
+        let i = ((x * n as f32) as usize).min(n - 1);
+        if self.integral > 0.0 {
+            self.func[i] / self.integral
+        } else {
+            1.0
+        }
+    }
+}
+
+/// A piecewise-constant density on [0, 1)², sampled by its marginal over
+/// rows then the conditional within the row (pbrt-v4 §A.5).
+#[derive(Debug, Clone)]
+pub struct Distribution2D {
+    rows: Vec<Distribution1D>,
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// `f` row-major, `width` x `height` (row 0 at v = 0).
+    pub fn new(f: &[f32], width: usize, height: usize) -> Self {
+        let rows: Vec<Distribution1D> = (0..height)
+            .map(|y| Distribution1D::new(&f[y * width..(y + 1) * width]))
+            .collect();
+        let marginal = Distribution1D::new(&rows.iter().map(|r| r.integral()).collect::<Vec<_>>());
+        Self { rows, marginal }
+    }
+
+    /// (u, v) and the density with respect to area on [0, 1)².
+    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
+        let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
+        let (x, pdf_u, _) = self.rows[row].sample_continuous(u.x);
+        (Vec2::new(x, v), pdf_u * pdf_v)
+    }
+
+    pub fn pdf(&self, uv: Vec2) -> f32 {
+        let n = self.rows.len();
+        let row = ((uv.y * n as f32) as usize).min(n - 1);
+        self.marginal.pdf(uv.y) * self.rows[row].pdf(uv.x)
+    }
+}

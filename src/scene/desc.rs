@@ -1,0 +1,280 @@
+//! Plain description structs produced by the scene parser.
+//!
+//! Nothing in here touches serde or the file system: these are the types the
+//! renderer consumes. Paths are already resolved against the scene file's
+//! directory; nothing is normalised beyond that (directions keep the length
+//! the user wrote, mix weights are not renormalised).
+
+use std::path::PathBuf;
+
+use glam::{DAffine3, DMat3, DVec3, Vec3};
+use serde::Deserialize;
+
+use crate::Rgb;
+
+/// A whole scene: what to render, from where, lit by what.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneDesc {
+    pub render: RenderDesc,
+    pub camera: CameraDesc,
+    pub lights: Vec<LightDesc>,
+    pub environment: EnvironmentDesc,
+    pub volumes: Vec<VolumeDesc>,
+}
+
+/// Which light-transport algorithm renders the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Integrator {
+    /// Reference volumetric path tracer.
+    #[default]
+    Path,
+    /// Photon mapping. Parsed, but not yet available: `validate()` rejects it.
+    Photon,
+}
+
+impl Integrator {
+    /// The spelling used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Path => "path",
+            Integrator::Photon => "photon",
+        }
+    }
+
+    /// Whether the renderer implements this integrator today.
+    pub fn is_available(self) -> bool {
+        matches!(self, Integrator::Path)
+    }
+}
+
+/// `[render]`. All fields are plain so the CLI can override them and call
+/// [`SceneDesc::validate`] again.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderDesc {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    pub seed: u64,
+    pub max_bounces: u32,
+    pub integrator: Integrator,
+    /// EXR output, resolved against the scene file's directory.
+    pub output: PathBuf,
+    /// Optional PNG preview, resolved against the scene file's directory.
+    pub preview: Option<PathBuf>,
+    /// Preview exposure in stops.
+    pub exposure: f32,
+    /// Write AOV layers (direct, indirect, emission, transmittance).
+    pub aovs: bool,
+}
+
+impl Default for RenderDesc {
+    /// Defaults as documented; `output` is the unresolved `out.exr`.
+    fn default() -> Self {
+        RenderDesc {
+            width: 320,
+            height: 240,
+            spp: 64,
+            seed: 0,
+            max_bounces: 256,
+            integrator: Integrator::Path,
+            output: PathBuf::from("out.exr"),
+            preview: None,
+            exposure: 0.0,
+            aovs: false,
+        }
+    }
+}
+
+/// `[camera]`: a pinhole camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraDesc {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub vfov_deg: f32,
+}
+
+impl Default for CameraDesc {
+    fn default() -> Self {
+        CameraDesc {
+            position: Vec3::new(0.0, -4.5, 0.6),
+            look_at: Vec3::ZERO,
+            up: Vec3::Z,
+            vfov_deg: 40.0,
+        }
+    }
+}
+
+/// One `[[light]]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LightDesc {
+    /// Distant light. `direction` points towards the light (not normalised);
+    /// `irradiance` in W/m² on a surface facing the sun; `angle_deg` is the
+    /// angular diameter (0 = delta light).
+    Sun {
+        direction: Vec3,
+        irradiance: Rgb,
+        angle_deg: f32,
+    },
+    /// Isotropic point light; `intensity` in W/sr.
+    Point { position: Vec3, intensity: Rgb },
+    /// Spot light. `direction` is the cone axis, pointing from the light into
+    /// the scene (not normalised); `intensity` in W/sr on the axis;
+    /// `cone_angle_deg` is the full cone angle; `blend` in [0, 1] is Blender's
+    /// `spot_blend`.
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Rgb,
+        cone_angle_deg: f32,
+        blend: f32,
+    },
+}
+
+/// `[environment]`: what a ray that leaves every volume sees.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EnvironmentDesc {
+    /// Constant radiance (W·m⁻²·sr⁻¹).
+    Constant(Rgb),
+    /// Equirectangular HDR map, resolved path; radiance = texel × `strength`,
+    /// map rotated by `rotate_z_deg` about +Z.
+    Map {
+        path: PathBuf,
+        strength: f32,
+        rotate_z_deg: f32,
+    },
+}
+
+impl Default for EnvironmentDesc {
+    fn default() -> Self {
+        EnvironmentDesc::Constant(Rgb::ZERO)
+    }
+}
+
+/// One `[[volume]]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VolumeDesc {
+    /// The `.vdb` file, resolved against the scene file's directory.
+    pub file: PathBuf,
+    pub density_grid: String,
+    pub temperature_grid: Option<String>,
+    pub flame_grid: Option<String>,
+    pub color_grid: Option<String>,
+    /// Scene transform, applied after the file's own index-to-world
+    /// transform: `world = transform · file_transform · index`.
+    pub transform: DAffine3,
+    pub material: MaterialDesc,
+}
+
+/// `[volume.material]`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MaterialDesc {
+    /// Blender's Principled Volume; same names, same defaults.
+    Principled {
+        density: f32,
+        color: Rgb,
+        absorption_color: Rgb,
+        /// Henyey–Greenstein g.
+        anisotropy: f32,
+        emission_strength: f32,
+        emission_color: Rgb,
+        blackbody_intensity: f32,
+        blackbody_tint: Rgb,
+        /// Kelvin.
+        temperature: f32,
+    },
+    /// Raw coefficients per unit grid density, in world units⁻¹.
+    Raw {
+        sigma_a: Rgb,
+        sigma_s: Rgb,
+        /// Radiance added per unit length per unit density.
+        emission: Rgb,
+        phase: PhaseDesc,
+    },
+}
+
+impl MaterialDesc {
+    /// Blender's Principled Volume defaults.
+    pub const PRINCIPLED_DEFAULT: MaterialDesc = MaterialDesc::Principled {
+        density: 1.0,
+        color: Vec3::splat(0.5),
+        absorption_color: Vec3::ZERO,
+        anisotropy: 0.0,
+        emission_strength: 0.0,
+        emission_color: Vec3::ONE,
+        blackbody_intensity: 0.0,
+        blackbody_tint: Vec3::ONE,
+        temperature: 1000.0,
+    };
+}
+
+impl Default for MaterialDesc {
+    fn default() -> Self {
+        MaterialDesc::PRINCIPLED_DEFAULT
+    }
+}
+
+/// Phase function of a raw material.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum PhaseDesc {
+    #[default]
+    Isotropic,
+    /// Henyey–Greenstein.
+    Hg { g: f32 },
+    /// Schlick's approximation of Henyey–Greenstein.
+    Schlick { g: f32 },
+    /// Weighted mix of HG lobes, `(g, weight)`; weights are not normalised
+    /// (the renderer divides by their sum).
+    HgMix(Vec<(f32, f32)>),
+}
+
+/// `(sin, cos)` of an angle in degrees, exact for multiples of 90°.
+fn sin_cos_deg(deg: f64) -> (f64, f64) {
+    let r = deg.rem_euclid(360.0);
+    if r == 0.0 {
+        (0.0, 1.0)
+    } else if r == 90.0 {
+        (1.0, 0.0)
+    } else if r == 180.0 {
+        (0.0, -1.0)
+    } else if r == 270.0 {
+        (-1.0, 0.0)
+    } else {
+        deg.to_radians().sin_cos()
+    }
+}
+
+/// Rotation from XYZ Euler angles in degrees, Blender's default order:
+/// `Rz · Ry · Rx` (X is applied first).
+pub fn euler_xyz_deg(rotate_deg: DVec3) -> DMat3 {
+    let (sx, cx) = sin_cos_deg(rotate_deg.x);
+    let (sy, cy) = sin_cos_deg(rotate_deg.y);
+    let (sz, cz) = sin_cos_deg(rotate_deg.z);
+    let rx = DMat3::from_cols(DVec3::X, DVec3::new(0.0, cx, sx), DVec3::new(0.0, -sx, cx));
+    let ry = DMat3::from_cols(DVec3::new(cy, 0.0, -sy), DVec3::Y, DVec3::new(sy, 0.0, cy));
+    let rz = DMat3::from_cols(DVec3::new(cz, sz, 0.0), DVec3::new(-sz, cz, 0.0), DVec3::Z);
+    rz * ry * rx
+}
+
+/// `translate · Rz · Ry · Rx · scale` (angles in degrees): scale first, then
+/// rotate about X, Y, Z, then translate — Blender's object transform.
+pub fn compose_trs(translate: DVec3, rotate_deg: DVec3, scale: DVec3) -> DAffine3 {
+    DAffine3::from_mat3_translation(
+        euler_xyz_deg(rotate_deg) * DMat3::from_diagonal(scale),
+        translate,
+    )
+}
+
+/// Affine transform from a row-major 4×4 matrix; the last row is ignored
+/// (the parser checks it is `0 0 0 1`).
+pub fn affine_from_rows(m: [[f64; 4]; 4]) -> DAffine3 {
+    DAffine3::from_cols(
+        DVec3::new(m[0][0], m[1][0], m[2][0]),
+        DVec3::new(m[0][1], m[1][1], m[2][1]),
+        DVec3::new(m[0][2], m[1][2], m[2][2]),
+        DVec3::new(m[0][3], m[1][3], m[2][3]),
+    )
+}

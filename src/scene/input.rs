@@ -1,0 +1,577 @@
+//! Serde mirror of the file format, and its conversion into [`SceneDesc`].
+//!
+//! Every struct denies unknown fields and deserialises in a streaming way
+//! (no untagged/internally-tagged enums), so TOML spans and JSON positions
+//! point at the offending key. Optional keys are `Option`s; defaults live in
+//! one place, the conversion below.
+
+use std::fmt;
+use std::path::{Component, Path, PathBuf};
+
+use glam::{DAffine3, DVec3, Vec3};
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+
+use super::desc::{
+    affine_from_rows, compose_trs, CameraDesc, EnvironmentDesc, Integrator, LightDesc,
+    MaterialDesc, PhaseDesc, RenderDesc, SceneDesc, VolumeDesc,
+};
+use super::error::{kp, PathSeg, ValidationError};
+use crate::Rgb;
+
+/// Three numbers `[x, y, z]`, or one number meaning `[v, v, v]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Splat3(pub [f64; 3]);
+
+impl<'de> Deserialize<'de> for Splat3 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Splat3;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of 3 numbers or a single number")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Splat3, E> {
+                Ok(Splat3([v; 3]))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Splat3, E> {
+                Ok(Splat3([v as f64; 3]))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Splat3, E> {
+                Ok(Splat3([v as f64; 3]))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Splat3, A::Error> {
+                let mut out = [0.0; 3];
+                for (i, slot) in out.iter_mut().enumerate() {
+                    *slot = seq
+                        .next_element()?
+                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                }
+                let mut n = 3;
+                while seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    n += 1;
+                }
+                if n != 3 {
+                    return Err(de::Error::invalid_length(n, &self));
+                }
+                Ok(Splat3(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+pub(crate) struct SceneIn {
+    #[serde(default)]
+    render: RenderIn,
+    #[serde(default)]
+    camera: CameraIn,
+    #[serde(default)]
+    light: Vec<LightIn>,
+    #[serde(default)]
+    environment: EnvironmentIn,
+    #[serde(default)]
+    volume: Vec<VolumeIn>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct RenderIn {
+    width: Option<u32>,
+    height: Option<u32>,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    max_bounces: Option<u32>,
+    integrator: Option<Integrator>,
+    output: Option<String>,
+    preview: Option<String>,
+    exposure: Option<f64>,
+    aovs: Option<bool>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct CameraIn {
+    position: Option<[f64; 3]>,
+    look_at: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    vfov: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum LightKind {
+    Sun,
+    Point,
+    Spot,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct LightIn {
+    #[serde(rename = "type")]
+    kind: LightKind,
+    direction: Option<[f64; 3]>,
+    irradiance: Option<Splat3>,
+    angle: Option<f64>,
+    position: Option<[f64; 3]>,
+    intensity: Option<Splat3>,
+    cone_angle: Option<f64>,
+    cone_falloff: Option<f64>,
+    blend: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct EnvironmentIn {
+    radiance: Option<Splat3>,
+    map: Option<String>,
+    strength: Option<f64>,
+    rotate_z: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct VolumeIn {
+    file: String,
+    density_grid: Option<String>,
+    temperature_grid: Option<String>,
+    flame_grid: Option<String>,
+    color_grid: Option<String>,
+    transform: Option<TransformIn>,
+    material: Option<MaterialIn>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct TransformIn {
+    translate: Option<[f64; 3]>,
+    rotate: Option<[f64; 3]>,
+    scale: Option<Splat3>,
+    matrix: Option<[[f64; 4]; 4]>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct MaterialIn {
+    density: Option<f64>,
+    color: Option<Splat3>,
+    absorption_color: Option<Splat3>,
+    anisotropy: Option<f64>,
+    emission_strength: Option<f64>,
+    emission_color: Option<Splat3>,
+    blackbody_intensity: Option<f64>,
+    blackbody_tint: Option<Splat3>,
+    temperature: Option<f64>,
+    sigma_s: Option<Splat3>,
+    sigma_a: Option<Splat3>,
+    emission: Option<Splat3>,
+    phase: Option<PhaseIn>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum PhaseKind {
+    Isotropic,
+    Hg,
+    Schlick,
+    HgMix,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct PhaseIn {
+    #[serde(rename = "type")]
+    kind: PhaseKind,
+    g: Option<f64>,
+    lobes: Option<Vec<LobeIn>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct LobeIn {
+    g: f64,
+    weight: f64,
+}
+
+type Conv<T> = Result<T, ValidationError>;
+
+fn v3(a: [f64; 3]) -> Vec3 {
+    Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
+}
+
+fn rgb(s: Splat3) -> Rgb {
+    v3(s.0)
+}
+
+fn with(path: &[PathSeg], key: &str) -> Vec<PathSeg> {
+    let mut p = path.to_vec();
+    p.push(PathSeg::Key(key.to_owned()));
+    p
+}
+
+/// Lexically removes `.` and `..` (no file-system access).
+fn normalize(p: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => match out.components().next_back() {
+                Some(Component::Normal(_)) => {
+                    out.pop();
+                }
+                Some(Component::RootDir | Component::Prefix(_)) => {}
+                _ => out.push(".."),
+            },
+            other => out.push(other.as_os_str()),
+        }
+    }
+    if out.as_os_str().is_empty() {
+        out.push(".");
+    }
+    out
+}
+
+/// Resolves a path from the scene file against `base` (absolute paths are
+/// kept), rejecting empty strings.
+fn resolve(base: &Path, p: &str, path: Vec<PathSeg>) -> Conv<PathBuf> {
+    if p.trim().is_empty() {
+        return Err(ValidationError::new(path, "path must not be empty"));
+    }
+    Ok(normalize(&base.join(p)))
+}
+
+fn require<T>(v: Option<T>, path: &[PathSeg], key: &str, what: &str) -> Conv<T> {
+    v.ok_or_else(|| ValidationError::new(with(path, key), format!("missing (required {what})")))
+}
+
+impl SceneIn {
+    pub(crate) fn into_desc(self, base: &Path) -> Conv<SceneDesc> {
+        let lights = self
+            .light
+            .into_iter()
+            .enumerate()
+            .map(|(i, l)| l.into_desc(&kp!["light", i]))
+            .collect::<Conv<Vec<_>>>()?;
+        let volumes = self
+            .volume
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| v.into_desc(base, &kp!["volume", i]))
+            .collect::<Conv<Vec<_>>>()?;
+        Ok(SceneDesc {
+            render: self.render.into_desc(base)?,
+            camera: self.camera.into_desc(),
+            lights,
+            environment: self.environment.into_desc(base)?,
+            volumes,
+        })
+    }
+}
+
+impl RenderIn {
+    fn into_desc(self, base: &Path) -> Conv<RenderDesc> {
+        let d = RenderDesc::default();
+        let output = self.output.as_deref().unwrap_or("out.exr");
+        Ok(RenderDesc {
+            width: self.width.unwrap_or(d.width),
+            height: self.height.unwrap_or(d.height),
+            spp: self.spp.unwrap_or(d.spp),
+            seed: self.seed.unwrap_or(d.seed),
+            max_bounces: self.max_bounces.unwrap_or(d.max_bounces),
+            integrator: self.integrator.unwrap_or(d.integrator),
+            output: resolve(base, output, kp!["render", "output"])?,
+            preview: match self.preview {
+                Some(p) => Some(resolve(base, &p, kp!["render", "preview"])?),
+                None => None,
+            },
+            exposure: self.exposure.map_or(d.exposure, |e| e as f32),
+            aovs: self.aovs.unwrap_or(d.aovs),
+        })
+    }
+}
+
+impl CameraIn {
+    fn into_desc(self) -> CameraDesc {
+        let d = CameraDesc::default();
+        CameraDesc {
+            position: self.position.map_or(d.position, v3),
+            look_at: self.look_at.map_or(d.look_at, v3),
+            up: self.up.map_or(d.up, v3),
+            vfov_deg: self.vfov.map_or(d.vfov_deg, |v| v as f32),
+        }
+    }
+}
+
+impl LightIn {
+    fn present_keys(&self) -> Vec<&'static str> {
+        let mut keys = Vec::new();
+        let mut add = |present: bool, key| {
+            if present {
+                keys.push(key)
+            }
+        };
+        add(self.direction.is_some(), "direction");
+        add(self.irradiance.is_some(), "irradiance");
+        add(self.angle.is_some(), "angle");
+        add(self.position.is_some(), "position");
+        add(self.intensity.is_some(), "intensity");
+        add(self.cone_angle.is_some(), "cone_angle");
+        add(self.cone_falloff.is_some(), "cone_falloff");
+        add(self.blend.is_some(), "blend");
+        keys
+    }
+
+    fn into_desc(self, path: &[PathSeg]) -> Conv<LightDesc> {
+        let (name, allowed): (&str, &[&str]) = match self.kind {
+            LightKind::Sun => ("sun", &["direction", "irradiance", "angle"]),
+            LightKind::Point => ("point", &["position", "intensity"]),
+            LightKind::Spot => (
+                "spot",
+                &[
+                    "position",
+                    "direction",
+                    "intensity",
+                    "cone_angle",
+                    "cone_falloff",
+                    "blend",
+                ],
+            ),
+        };
+        if let Some(bad) = self
+            .present_keys()
+            .into_iter()
+            .find(|k| !allowed.contains(k))
+        {
+            return Err(ValidationError::new(
+                with(path, bad),
+                format!(
+                    "not a key of a \"{name}\" light (expected one of: type, {})",
+                    allowed.join(", ")
+                ),
+            ));
+        }
+        let what = format!("for a \"{name}\" light");
+        Ok(match self.kind {
+            LightKind::Sun => LightDesc::Sun {
+                direction: v3(require(self.direction, path, "direction", &what)?),
+                irradiance: rgb(require(self.irradiance, path, "irradiance", &what)?),
+                angle_deg: self.angle.unwrap_or(0.0) as f32,
+            },
+            LightKind::Point => LightDesc::Point {
+                position: v3(require(self.position, path, "position", &what)?),
+                intensity: rgb(require(self.intensity, path, "intensity", &what)?),
+            },
+            LightKind::Spot => {
+                if self.cone_falloff.is_some() && self.blend.is_some() {
+                    return Err(ValidationError::new(
+                        with(path, "blend"),
+                        "'blend' and 'cone_falloff' are the same setting: give only one",
+                    ));
+                }
+                LightDesc::Spot {
+                    position: v3(require(self.position, path, "position", &what)?),
+                    direction: v3(require(self.direction, path, "direction", &what)?),
+                    intensity: rgb(require(self.intensity, path, "intensity", &what)?),
+                    cone_angle_deg: self.cone_angle.unwrap_or(45.0) as f32,
+                    blend: self.blend.or(self.cone_falloff).unwrap_or(0.15) as f32,
+                }
+            }
+        })
+    }
+}
+
+impl EnvironmentIn {
+    fn into_desc(self, base: &Path) -> Conv<EnvironmentDesc> {
+        let path = kp!["environment"];
+        match self.map {
+            Some(map) => {
+                if self.radiance.is_some() {
+                    return Err(ValidationError::new(
+                        with(&path, "radiance"),
+                        "give either 'radiance' or 'map', not both",
+                    ));
+                }
+                Ok(EnvironmentDesc::Map {
+                    path: resolve(base, &map, with(&path, "map"))?,
+                    strength: self.strength.unwrap_or(1.0) as f32,
+                    rotate_z_deg: self.rotate_z.unwrap_or(0.0) as f32,
+                })
+            }
+            None => {
+                for (present, key) in [(self.strength, "strength"), (self.rotate_z, "rotate_z")] {
+                    if present.is_some() {
+                        return Err(ValidationError::new(
+                            with(&path, key),
+                            "only used with 'map' (an environment map)",
+                        ));
+                    }
+                }
+                Ok(EnvironmentDesc::Constant(
+                    self.radiance.map_or(Rgb::ZERO, rgb),
+                ))
+            }
+        }
+    }
+}
+
+impl VolumeIn {
+    fn into_desc(self, base: &Path, path: &[PathSeg]) -> Conv<VolumeDesc> {
+        Ok(VolumeDesc {
+            file: resolve(base, &self.file, with(path, "file"))?,
+            density_grid: self.density_grid.unwrap_or_else(|| "density".to_owned()),
+            temperature_grid: self.temperature_grid,
+            flame_grid: self.flame_grid,
+            color_grid: self.color_grid,
+            transform: match self.transform {
+                Some(t) => t.into_desc(&with(path, "transform"))?,
+                None => DAffine3::IDENTITY,
+            },
+            material: self
+                .material
+                .unwrap_or_default()
+                .into_desc(&with(path, "material"))?,
+        })
+    }
+}
+
+impl TransformIn {
+    fn into_desc(self, path: &[PathSeg]) -> Conv<DAffine3> {
+        let Some(m) = self.matrix else {
+            return Ok(compose_trs(
+                self.translate.map_or(DVec3::ZERO, DVec3::from),
+                self.rotate.map_or(DVec3::ZERO, DVec3::from),
+                self.scale.map_or(DVec3::ONE, |s| DVec3::from(s.0)),
+            ));
+        };
+        let trs = [
+            (self.translate.is_some(), "translate"),
+            (self.rotate.is_some(), "rotate"),
+            (self.scale.is_some(), "scale"),
+        ];
+        if let Some((_, key)) = trs.iter().find(|(present, _)| *present) {
+            return Err(ValidationError::new(
+                with(path, key),
+                "cannot be combined with 'matrix' (give either translate/rotate/scale or matrix)",
+            ));
+        }
+        if m[3] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(ValidationError::new(
+                with(path, "matrix"),
+                format!("last row must be [0, 0, 0, 1], got {:?}", m[3]),
+            ));
+        }
+        Ok(affine_from_rows(m))
+    }
+}
+
+impl MaterialIn {
+    fn into_desc(self, path: &[PathSeg]) -> Conv<MaterialDesc> {
+        let principled = [
+            (self.density.is_some(), "density"),
+            (self.color.is_some(), "color"),
+            (self.absorption_color.is_some(), "absorption_color"),
+            (self.anisotropy.is_some(), "anisotropy"),
+            (self.emission_strength.is_some(), "emission_strength"),
+            (self.emission_color.is_some(), "emission_color"),
+            (self.blackbody_intensity.is_some(), "blackbody_intensity"),
+            (self.blackbody_tint.is_some(), "blackbody_tint"),
+            (self.temperature.is_some(), "temperature"),
+        ];
+        let raw = [
+            (self.sigma_s.is_some(), "sigma_s"),
+            (self.sigma_a.is_some(), "sigma_a"),
+            (self.emission.is_some(), "emission"),
+            (self.phase.is_some(), "phase"),
+        ];
+        let first = |keys: &[(bool, &'static str)]| keys.iter().find(|k| k.0).map(|k| k.1);
+        match (first(&principled), first(&raw)) {
+            (Some(p), Some(r)) => Err(ValidationError::new(
+                with(path, r),
+                format!(
+                    "cannot be mixed with Principled Volume key '{p}' (use either the \
+                     Principled keys or the raw sigma_s/sigma_a/emission/phase keys)"
+                ),
+            )),
+            (_, Some(_)) => Ok(MaterialDesc::Raw {
+                sigma_a: self.sigma_a.map_or(Rgb::ZERO, rgb),
+                sigma_s: self.sigma_s.map_or(Rgb::ZERO, rgb),
+                emission: self.emission.map_or(Rgb::ZERO, rgb),
+                phase: match self.phase {
+                    Some(p) => p.into_desc(&with(path, "phase"))?,
+                    None => PhaseDesc::Isotropic,
+                },
+            }),
+            _ => {
+                let MaterialDesc::Principled {
+                    density,
+                    color,
+                    absorption_color,
+                    anisotropy,
+                    emission_strength,
+                    emission_color,
+                    blackbody_intensity,
+                    blackbody_tint,
+                    temperature,
+                } = MaterialDesc::PRINCIPLED_DEFAULT
+                else {
+                    unreachable!("PRINCIPLED_DEFAULT is Principled")
+                };
+                let f = |v: Option<f64>, d: f32| v.map_or(d, |v| v as f32);
+                let c = |v: Option<Splat3>, d: Rgb| v.map_or(d, rgb);
+                Ok(MaterialDesc::Principled {
+                    density: f(self.density, density),
+                    color: c(self.color, color),
+                    absorption_color: c(self.absorption_color, absorption_color),
+                    anisotropy: f(self.anisotropy, anisotropy),
+                    emission_strength: f(self.emission_strength, emission_strength),
+                    emission_color: c(self.emission_color, emission_color),
+                    blackbody_intensity: f(self.blackbody_intensity, blackbody_intensity),
+                    blackbody_tint: c(self.blackbody_tint, blackbody_tint),
+                    temperature: f(self.temperature, temperature),
+                })
+            }
+        }
+    }
+}
+
+impl PhaseIn {
+    fn into_desc(self, path: &[PathSeg]) -> Conv<PhaseDesc> {
+        let (name, needs_g) = match self.kind {
+            PhaseKind::Isotropic => ("isotropic", false),
+            PhaseKind::Hg => ("hg", true),
+            PhaseKind::Schlick => ("schlick", true),
+            PhaseKind::HgMix => ("hg_mix", false),
+        };
+        let what = format!("for phase type \"{name}\"");
+        let unused = |key: &str| {
+            ValidationError::new(
+                with(path, key),
+                format!("not used by phase type \"{name}\""),
+            )
+        };
+        if self.g.is_some() && !needs_g {
+            return Err(unused("g"));
+        }
+        if self.lobes.is_some() && self.kind != PhaseKind::HgMix {
+            return Err(unused("lobes"));
+        }
+        Ok(match self.kind {
+            PhaseKind::Isotropic => PhaseDesc::Isotropic,
+            PhaseKind::Hg => PhaseDesc::Hg {
+                g: require(self.g, path, "g", &what)? as f32,
+            },
+            PhaseKind::Schlick => PhaseDesc::Schlick {
+                g: require(self.g, path, "g", &what)? as f32,
+            },
+            PhaseKind::HgMix => PhaseDesc::HgMix(
+                require(self.lobes, path, "lobes", &what)?
+                    .into_iter()
+                    .map(|l| (l.g as f32, l.weight as f32))
+                    .collect(),
+            ),
+        })
+    }
+}

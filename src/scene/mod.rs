@@ -1,0 +1,184 @@
+//! Scene files: parse a TOML (or JSON) scene into plain description structs
+//! and validate them. This is the only module of the renderer that uses
+//! serde; it loads no VDB data and renders nothing.
+//!
+//! ```no_run
+//! use vdbphoton::scene::SceneDesc;
+//! let mut scene = SceneDesc::load("scene.toml")?;
+//! scene.render.spp = 16; // a CLI override
+//! scene.validate()?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The format is documented key by key in `docs/scene.md`.
+
+mod desc;
+mod error;
+mod input;
+mod source_map;
+mod validate;
+
+use std::path::Path;
+
+pub use desc::{
+    affine_from_rows, compose_trs, euler_xyz_deg, CameraDesc, EnvironmentDesc, Integrator,
+    LightDesc, MaterialDesc, PhaseDesc, RenderDesc, SceneDesc, VolumeDesc,
+};
+pub use error::{PathSeg, SceneError, ValidationError};
+
+use input::SceneIn;
+use source_map::SourceMap;
+
+/// Syntax of a scene file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SceneFormat {
+    Toml,
+    Json,
+}
+
+impl SceneFormat {
+    /// JSON if the file name ends in `.json` (any case), TOML otherwise.
+    pub fn from_path(path: &Path) -> SceneFormat {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some(e) if e.eq_ignore_ascii_case("json") => SceneFormat::Json,
+            _ => SceneFormat::Toml,
+        }
+    }
+}
+
+impl SceneDesc {
+    /// Reads, parses and validates a scene file. Relative paths inside it are
+    /// resolved against the file's directory (made absolute). Error messages
+    /// start with `path` as given.
+    pub fn load(path: impl AsRef<Path>) -> Result<SceneDesc, SceneError> {
+        let path = path.as_ref();
+        let file = path.display().to_string();
+        if path.is_dir() {
+            return Err(SceneError::NotAFile { file });
+        }
+        let bytes = std::fs::read(path).map_err(|source| SceneError::Read {
+            file: file.clone(),
+            source,
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let valid = e.utf8_error().valid_up_to();
+            let line = 1 + e.as_bytes()[..valid]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+            SceneError::Parse {
+                file: file.clone(),
+                line: Some(line),
+                message: "file is not valid UTF-8 text".to_owned(),
+            }
+        })?;
+        let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        let base = absolute.parent().unwrap_or(Path::new(""));
+        Self::from_str_named(&text, SceneFormat::from_path(path), base, &file)
+    }
+
+    /// Parses and validates scene text; relative paths are resolved against
+    /// `base_dir`. Error messages start with `<string>`.
+    pub fn from_str(
+        text: &str,
+        format: SceneFormat,
+        base_dir: impl AsRef<Path>,
+    ) -> Result<SceneDesc, SceneError> {
+        Self::from_str_named(text, format, base_dir, "<string>")
+    }
+
+    /// Like [`SceneDesc::from_str`], with `name` heading error messages.
+    pub fn from_str_named(
+        text: &str,
+        format: SceneFormat,
+        base_dir: impl AsRef<Path>,
+        name: &str,
+    ) -> Result<SceneDesc, SceneError> {
+        let input = match format {
+            SceneFormat::Toml => parse_toml(text, name)?,
+            SceneFormat::Json => parse_json(text, name)?,
+        };
+        let invalid = |error: ValidationError| {
+            let map = match format {
+                SceneFormat::Toml => SourceMap::toml(text),
+                SceneFormat::Json => SourceMap::json(text),
+            };
+            SceneError::Invalid {
+                file: name.to_owned(),
+                line: map.line_of_path(&error.path),
+                error,
+            }
+        };
+        let desc = input.into_desc(base_dir.as_ref()).map_err(invalid)?;
+        desc.validate().map_err(invalid)?;
+        Ok(desc)
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.trim().replace(['\n', '\r'], " ")
+}
+
+fn parse_toml(text: &str, name: &str) -> Result<SceneIn, SceneError> {
+    let parse_error = |line, message: String| SceneError::Parse {
+        file: name.to_owned(),
+        line,
+        message: one_line(&message),
+    };
+    if let Err(e) = toml::de::DeTable::parse(text) {
+        let line = e.span().map(|s| source_map::line_of_offset(text, s.start));
+        let near = e
+            .span()
+            .and_then(|s| text.get(s))
+            .filter(|s| !s.trim().is_empty() && s.len() <= 40 && !s.contains('\n'));
+        let message = match near {
+            Some(near) => format!("invalid TOML: {} (at '{near}')", e.message()),
+            None => format!("invalid TOML: {}", e.message()),
+        };
+        return Err(parse_error(line, message));
+    }
+    toml::from_str(text).map_err(|e| {
+        let map = SourceMap::toml(text);
+        let (path, line) = match e.span() {
+            Some(span) => (
+                map.path_at(span.start),
+                Some(map.line_of_offset(span.start)),
+            ),
+            None => (Vec::new(), None),
+        };
+        parse_error(line, error::rewrite_serde_message(e.message(), &path))
+    })
+}
+
+fn parse_json(text: &str, name: &str) -> Result<SceneIn, SceneError> {
+    if text.trim().is_empty() {
+        return Ok(SceneIn::default());
+    }
+    if !text.trim_start().starts_with('{') {
+        let start = text.len() - text.trim_start().len();
+        return Err(SceneError::Parse {
+            file: name.to_owned(),
+            line: Some(source_map::line_of_offset(text, start)),
+            message: "invalid JSON scene: the top level must be an object { ... }".to_owned(),
+        });
+    }
+    serde_json::from_str(text).map_err(|e| {
+        let full = e.to_string();
+        let suffix = format!(" at line {} column {}", e.line(), e.column());
+        let msg = full.strip_suffix(&suffix).unwrap_or(&full);
+        let line = (e.line() > 0).then_some(e.line());
+        let message = match e.classify() {
+            serde_json::error::Category::Data => {
+                let map = SourceMap::json(text);
+                let offset = source_map::offset_of_line_col(text, e.line(), e.column());
+                error::rewrite_serde_message(msg, &map.path_at(offset))
+            }
+            _ => format!("invalid JSON: {msg} (column {})", e.column()),
+        };
+        SceneError::Parse {
+            file: name.to_owned(),
+            line,
+            message: one_line(&message),
+        }
+    })
+}

@@ -1,0 +1,319 @@
+//! Cross-field rules on a [`SceneDesc`]. Error paths use the scene file's key
+//! names so the loader can point at the offending line.
+
+use glam::Vec3;
+
+use super::desc::{EnvironmentDesc, LightDesc, MaterialDesc, PhaseDesc, SceneDesc};
+use super::error::{kp, PathSeg, ValidationError};
+
+type Check = Result<(), ValidationError>;
+
+fn err(path: Vec<PathSeg>, message: impl Into<String>) -> Check {
+    Err(ValidationError::new(path, message))
+}
+
+fn with(path: &[PathSeg], key: &str) -> Vec<PathSeg> {
+    let mut p = path.to_vec();
+    p.push(PathSeg::Key(key.to_owned()));
+    p
+}
+
+fn finite(path: &[PathSeg], v: f32) -> Check {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        err(path.to_vec(), format!("must be a finite number, got {v}"))
+    }
+}
+
+fn finite3(path: &[PathSeg], v: Vec3) -> Check {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        err(
+            path.to_vec(),
+            format!("must be finite numbers, got {}", fmt3(v)),
+        )
+    }
+}
+
+fn fmt3(v: Vec3) -> String {
+    format!("[{}, {}, {}]", v.x, v.y, v.z)
+}
+
+/// Finite and `>= 0` in every component.
+fn non_negative3(path: &[PathSeg], v: Vec3) -> Check {
+    finite3(path, v)?;
+    if v.cmpge(Vec3::ZERO).all() {
+        Ok(())
+    } else {
+        err(path.to_vec(), format!("must be >= 0, got {}", fmt3(v)))
+    }
+}
+
+fn non_negative(path: &[PathSeg], v: f32) -> Check {
+    finite(path, v)?;
+    if v >= 0.0 {
+        Ok(())
+    } else {
+        err(path.to_vec(), format!("must be >= 0, got {v}"))
+    }
+}
+
+/// Finite, within `[lo, hi]` (bounds included or not as flagged).
+fn in_range(path: &[PathSeg], v: f32, lo: (f32, bool), hi: (f32, bool)) -> Check {
+    finite(path, v)?;
+    let above = if lo.1 { v >= lo.0 } else { v > lo.0 };
+    let below = if hi.1 { v <= hi.0 } else { v < hi.0 };
+    if above && below {
+        Ok(())
+    } else {
+        let open = if lo.1 { '[' } else { '(' };
+        let close = if hi.1 { ']' } else { ')' };
+        err(
+            path.to_vec(),
+            format!("must be in {open}{}, {}{close}, got {v}", lo.0, hi.0),
+        )
+    }
+}
+
+fn g_range(path: &[PathSeg], g: f32) -> Check {
+    in_range(path, g, (-1.0, true), (1.0, true))
+}
+
+fn non_zero_direction(path: &[PathSeg], v: Vec3) -> Check {
+    finite3(path, v)?;
+    if v.length_squared() > 0.0 {
+        Ok(())
+    } else {
+        err(path.to_vec(), "must not be the zero vector")
+    }
+}
+
+fn grid_name(path: &[PathSeg], name: &str) -> Check {
+    if name.trim().is_empty() {
+        err(path.to_vec(), "grid name must not be empty")
+    } else {
+        Ok(())
+    }
+}
+
+impl SceneDesc {
+    /// Checks every rule the parser cannot express per key: ranges, finite
+    /// numbers, camera geometry, at least one volume. Returns the first
+    /// problem found. Call it again after changing fields (CLI overrides).
+    pub fn validate(&self) -> Result<(), ValidationError> {
+        self.validate_render()?;
+        self.validate_camera()?;
+        for (i, light) in self.lights.iter().enumerate() {
+            validate_light(&kp!["light", i], light)?;
+        }
+        self.validate_environment()?;
+        for (i, volume) in self.volumes.iter().enumerate() {
+            let path = kp!["volume", i];
+            grid_name(&with(&path, "density_grid"), &volume.density_grid)?;
+            for (key, grid) in [
+                ("temperature_grid", &volume.temperature_grid),
+                ("flame_grid", &volume.flame_grid),
+                ("color_grid", &volume.color_grid),
+            ] {
+                if let Some(name) = grid {
+                    grid_name(&with(&path, key), name)?;
+                }
+            }
+            let t = &volume.transform;
+            if !t.is_finite() {
+                return err(with(&path, "transform"), "must be finite numbers");
+            }
+            if t.matrix3.determinant() == 0.0 {
+                return err(
+                    with(&path, "transform"),
+                    "is singular (a zero scale or degenerate matrix)",
+                );
+            }
+            validate_material(&with(&path, "material"), &volume.material)?;
+        }
+        if self.volumes.is_empty() {
+            return err(vec![], "no [[volume]]: a scene needs at least one volume");
+        }
+        Ok(())
+    }
+
+    fn validate_render(&self) -> Check {
+        let r = &self.render;
+        let p = |k| kp!["render", k];
+        for (key, v) in [("width", r.width), ("height", r.height)] {
+            if !(1..=65536).contains(&v) {
+                return err(p(key), format!("must be in [1, 65536], got {v}"));
+            }
+        }
+        if r.spp < 1 {
+            return err(p("spp"), format!("must be >= 1, got {}", r.spp));
+        }
+        if !r.integrator.is_available() {
+            return err(
+                p("integrator"),
+                format!(
+                    "\"{}\" is not yet available (use \"path\")",
+                    r.integrator.name()
+                ),
+            );
+        }
+        if r.output.as_os_str().is_empty() {
+            return err(p("output"), "path must not be empty");
+        }
+        if r.preview.as_ref().is_some_and(|p| p.as_os_str().is_empty()) {
+            return err(p("preview"), "path must not be empty");
+        }
+        finite(&p("exposure"), r.exposure)
+    }
+
+    fn validate_camera(&self) -> Check {
+        let c = &self.camera;
+        let p = |k| kp!["camera", k];
+        finite3(&p("position"), c.position)?;
+        finite3(&p("look_at"), c.look_at)?;
+        finite3(&p("up"), c.up)?;
+        in_range(&p("vfov"), c.vfov_deg, (0.0, false), (180.0, false))?;
+        let view = c.look_at - c.position;
+        if view.length_squared() == 0.0 {
+            return err(
+                p("look_at"),
+                format!(
+                    "must differ from 'position' (both are {})",
+                    fmt3(c.position)
+                ),
+            );
+        }
+        let sin = view.normalize().cross(c.up.normalize_or_zero()).length();
+        if sin.is_nan() || sin < 1e-4 {
+            return err(
+                p("up"),
+                format!(
+                    "must not be zero or parallel to the view direction look_at - position = {}",
+                    fmt3(view)
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    fn validate_environment(&self) -> Check {
+        let p = |k| kp!["environment", k];
+        match &self.environment {
+            EnvironmentDesc::Constant(radiance) => non_negative3(&p("radiance"), *radiance),
+            EnvironmentDesc::Map {
+                path,
+                strength,
+                rotate_z_deg,
+            } => {
+                if path.as_os_str().is_empty() {
+                    return err(p("map"), "path must not be empty");
+                }
+                non_negative(&p("strength"), *strength)?;
+                finite(&p("rotate_z"), *rotate_z_deg)
+            }
+        }
+    }
+}
+
+fn validate_light(path: &[PathSeg], light: &LightDesc) -> Check {
+    let k = |key| with(path, key);
+    match *light {
+        LightDesc::Sun {
+            direction,
+            irradiance,
+            angle_deg,
+        } => {
+            non_zero_direction(&k("direction"), direction)?;
+            non_negative3(&k("irradiance"), irradiance)?;
+            in_range(&k("angle"), angle_deg, (0.0, true), (180.0, false))
+        }
+        LightDesc::Point {
+            position,
+            intensity,
+        } => {
+            finite3(&k("position"), position)?;
+            non_negative3(&k("intensity"), intensity)
+        }
+        LightDesc::Spot {
+            position,
+            direction,
+            intensity,
+            cone_angle_deg,
+            blend,
+        } => {
+            finite3(&k("position"), position)?;
+            non_zero_direction(&k("direction"), direction)?;
+            non_negative3(&k("intensity"), intensity)?;
+            in_range(
+                &k("cone_angle"),
+                cone_angle_deg,
+                (0.0, false),
+                (180.0, true),
+            )?;
+            in_range(&k("blend"), blend, (0.0, true), (1.0, true))
+        }
+    }
+}
+
+fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
+    let k = |key| with(path, key);
+    match material {
+        MaterialDesc::Principled {
+            density,
+            color,
+            absorption_color,
+            anisotropy,
+            emission_strength,
+            emission_color,
+            blackbody_intensity,
+            blackbody_tint,
+            temperature,
+        } => {
+            non_negative(&k("density"), *density)?;
+            non_negative3(&k("color"), *color)?;
+            non_negative3(&k("absorption_color"), *absorption_color)?;
+            g_range(&k("anisotropy"), *anisotropy)?;
+            non_negative(&k("emission_strength"), *emission_strength)?;
+            non_negative3(&k("emission_color"), *emission_color)?;
+            non_negative(&k("blackbody_intensity"), *blackbody_intensity)?;
+            non_negative3(&k("blackbody_tint"), *blackbody_tint)?;
+            non_negative(&k("temperature"), *temperature)
+        }
+        MaterialDesc::Raw {
+            sigma_a,
+            sigma_s,
+            emission,
+            phase,
+        } => {
+            non_negative3(&k("sigma_s"), *sigma_s)?;
+            non_negative3(&k("sigma_a"), *sigma_a)?;
+            non_negative3(&k("emission"), *emission)?;
+            let p = k("phase");
+            match phase {
+                PhaseDesc::Isotropic => Ok(()),
+                PhaseDesc::Hg { g } | PhaseDesc::Schlick { g } => g_range(&with(&p, "g"), *g),
+                PhaseDesc::HgMix(lobes) => {
+                    let lobes_path = with(&p, "lobes");
+                    let mut sum = 0.0;
+                    for (i, &(g, weight)) in lobes.iter().enumerate() {
+                        let mut lobe = lobes_path.clone();
+                        lobe.push(PathSeg::Index(i));
+                        g_range(&with(&lobe, "g"), g)?;
+                        non_negative(&with(&lobe, "weight"), weight)?;
+                        sum += weight;
+                    }
+                    if sum > 0.0 && sum.is_finite() {
+                        Ok(())
+                    } else {
+                        err(
+                            lobes_path,
+                            format!("weights must have a positive sum, got {sum}"),
+                        )
+                    }
+                }
+            }
+        }
+    }
+}
