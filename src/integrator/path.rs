@@ -5,16 +5,19 @@
 //!
 //! - Free flights by delta tracking against the majorant grid
 //!   ([`tracking::sample_t_maj`]). At each tentative collision with majorant
-//!   σ̄ the path adds emission β·σa·Le/σ̄ and then chooses absorption,
-//!   real scattering or a null collision with probabilities avg(σa)/σ̄,
-//!   avg(σs)/σ̄ and avg(σn)/σ̄ (σn = σ̄ − σt), dividing β by the chosen
-//!   probability: unbiased for RGB coefficients, and classic delta tracking
-//!   (weights of 1) for grey media (Galtier et al. 2013; Novák et al. 2014).
+//!   σ̄ the path adds emission β·σa·Le/σ̄ and then chooses absorption, real
+//!   scattering or a null collision (σn = σ̄ − σt) with probabilities
+//!   proportional to avg(β·σa), avg(β·σs), avg(β·σn), multiplying β by
+//!   σx/(σ̄·Px): spectral tracking with history-aware probabilities (Kutz,
+//!   Habel, Li & Novák 2017), unbiased for RGB coefficients. It keeps
+//!   avg(β) unchanged at every collision, so chromatic media do not build
+//!   up heavy-tailed weights; for grey media it is classic delta tracking
+//!   with weights of 1.
 //! - Next-event estimation to every light at every real scattering event,
 //!   with ratio-tracked transmittance; multiple importance sampling (power
 //!   heuristic, Veach 1997) between light and phase sampling for the lights
 //!   that rays can hit (the environment and finite suns).
-//! - Russian roulette on the throughput after three scattering events;
+//! - Russian roulette on a throughput below 1 after three scattering events;
 //!   `max_bounces` real scattering events at most.
 
 use super::{SampleResult, Settings};
@@ -125,20 +128,29 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
                 res.l += e;
                 res.emission += e;
             }
-            let p_a = avg(m.sigma_a) / c.sigma_maj;
-            let p_s = avg(m.sigma_s) / c.sigma_maj;
-            let u = rng.next_f32();
-            if u < p_a {
+            let sigma_n = (Rgb::splat(c.sigma_maj) - m.sigma_t()).max(Rgb::ZERO);
+            let (wa, ws, wn) = (
+                avg(beta * m.sigma_a),
+                avg(beta * m.sigma_s),
+                avg(beta * sigma_n),
+            );
+            let total = wa + ws + wn;
+            if total <= 0.0 {
                 terminated = true;
                 return false;
             }
-            if u < p_a + p_s {
+            let u = rng.next_f32() * total;
+            if u < wa {
+                terminated = true;
+                return false;
+            }
+            if u < wa + ws {
                 depth += 1;
                 if depth > settings.max_bounces {
                     terminated = true;
                     return false;
                 }
-                beta *= m.sigma_s / (c.sigma_maj * p_s);
+                beta *= m.sigma_s * (total / ws) / c.sigma_maj;
                 let wo = -ray_d;
                 let phase = media.phase_at(c.p, rng.next_f32());
                 let ld = beta * direct_light(world, media, c.p, wo, &phase, rng);
@@ -161,13 +173,7 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
                 return false;
             }
             // Null collision.
-            let sigma_n = (Rgb::splat(c.sigma_maj) - m.sigma_t()).max(Rgb::ZERO);
-            let p_n = avg(sigma_n) / c.sigma_maj;
-            if p_n <= 0.0 {
-                terminated = true;
-                return false;
-            }
-            beta *= sigma_n / (c.sigma_maj * p_n);
+            beta *= sigma_n * (total / wn) / c.sigma_maj;
             true
         });
         if terminated {
@@ -191,8 +197,12 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
         ray_o = new_o;
         ray_d = new_dir;
         last_phase_pdf = new_pdf;
-        if depth >= RR_DEPTH {
-            let q = (1.0 - beta.max_element()).max(0.05);
+        // Russian roulette only once the throughput has fallen below 1
+        // (pbrt-v4): a floor on the termination probability would make
+        // survivors' weights grow without bound along long walks.
+        let m = beta.max_element();
+        if depth >= RR_DEPTH && m < 1.0 {
+            let q = 1.0 - m;
             if rng.next_f32() < q {
                 break;
             }

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod chi2;
+
 use glam::{DAffine3, DQuat, DVec3, IVec3};
 use std::path::PathBuf;
 use vdbphoton::grid::{Grid, GridParts, Tile};
@@ -106,5 +108,25 @@ pub fn hand_built() -> Grid<f32> {
         }
         p.masks.push(mask);
     }
+    Grid::from_parts(p).unwrap()
+}
+
+/// A box of constant density 1 filling [-1, 1]^3 (a 128^3 tile; trilinear
+/// ramps of one voxel outside it integrate to exactly the sharp box along
+/// any axis-aligned line).
+pub fn unit_box_grid() -> Grid<f32> {
+    let h = 2.0 / 128.0;
+    let xf = DAffine3::from_scale_rotation_translation(
+        DVec3::splat(h),
+        DQuat::IDENTITY,
+        DVec3::splat(-1.0 + 0.5 * h),
+    );
+    let mut p = GridParts::new("density", 0.0f32, xf);
+    p.tiles.push(Tile {
+        origin: IVec3::ZERO,
+        level: 2,
+        value: 1.0,
+        active: true,
+    });
     Grid::from_parts(p).unwrap()
 }
