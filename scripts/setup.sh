@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # vdbphoton quick start: installs what is missing on Debian 12 (apt-get),
-# builds the release binary, and runs the main job on a bundled default.
+# builds the release binary, and renders the bundled default scene
+# (scenes/cloud.toml) to out/cloud.exr with a PNG preview out/cloud.png.
 # Usage: bash scripts/setup.sh        (from the repository root)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,6 +27,6 @@ echo "== building vdbphoton (release)"
 cargo build --release --locked
 
 mkdir -p out
-echo "== generating the default cloud and inspecting it"
-./target/release/vdbphoton generate cloud out/cloud.vdb --res 128 --seed 1
-./target/release/vdbphoton info out/cloud.vdb
+echo "== rendering the default scene"
+./target/release/vdbphoton render scenes/cloud.toml -o out/cloud.exr --preview out/cloud.png
+echo "== done: out/cloud.exr (linear float RGBA) and out/cloud.png (sRGB preview)"

@@ -1,0 +1,143 @@
+//! `vdbphoton render` from the command line: the bundled scenes render,
+//! outputs and headers are right, and bad scenes fail cleanly without
+//! leaving an output file.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_vdbphoton");
+const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes");
+
+fn render(args: &[&str]) -> (i32, String) {
+    let out = Command::new(BIN).arg("render").args(args).output().unwrap();
+    let code = out.status.code().expect("killed by a signal");
+    (code, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn no_files_in(dir: &Path) -> bool {
+    std::fs::read_dir(dir).unwrap().next().is_none()
+}
+
+#[test]
+fn bundled_scenes_render() {
+    let dir = common::tempdir();
+    for name in ["cloud", "plume"] {
+        let exr = dir.path().join(format!("{name}.exr"));
+        let png = dir.path().join(format!("{name}.png"));
+        let scene = format!("{SCENES}/{name}.toml");
+        let (code, err) = render(&[
+            &scene,
+            "-o",
+            exr.to_str().unwrap(),
+            "--preview",
+            png.to_str().unwrap(),
+            "--spp",
+            "4",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--aovs",
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        assert!(
+            err.contains("render") && err.contains("total"),
+            "no timing summary: {err}"
+        );
+        let img = vdbphoton::image::read_exr_rgb(&exr).unwrap();
+        assert_eq!((img.width, img.height), (64, 48));
+        assert!(img.mean() > 0.0);
+        // The header carries the settings; the AOV layers are there.
+        let meta = exr::meta::MetaData::read_from_file(&exr, false).unwrap();
+        let header = &meta.headers[0];
+        let text = format!("{:?}", header.own_attributes.other);
+        assert!(
+            text.contains("vdbphoton/spp") && text.contains("vdbphoton/integrator"),
+            "{text}"
+        );
+        let channels: Vec<String> = header
+            .channels
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        for c in [
+            "A",
+            "B",
+            "G",
+            "R",
+            "direct.R",
+            "emission.G",
+            "indirect.B",
+            "transmittance.Y",
+        ] {
+            assert!(
+                channels.iter().any(|x| x == c),
+                "{name}: no channel {c} in {channels:?}"
+            );
+        }
+        let png_data = std::fs::read(&png).unwrap();
+        assert_eq!(&png_data[1..4], b"PNG");
+    }
+}
+
+#[test]
+fn bad_scenes_fail_cleanly_without_output() {
+    let dir = common::tempdir();
+    let out_dir = dir.path().join("out");
+    std::fs::create_dir(&out_dir).unwrap();
+    let out = out_dir.join("x.exr");
+    let cases: Vec<(&str, String, &str)> = vec![
+        ("missing.toml", String::new(), "missing.toml"),
+        ("typo.toml", format!("[render]\nwidht = 10\n[[volume]]\nfile = \"{SCENES}/cloud.vdb\"\n"), "widht"),
+        ("novdb.toml", "[[volume]]\nfile = \"nothere.vdb\"\n".to_string(), "nothere.vdb"),
+        ("grid.toml", format!("[[volume]]\nfile = \"{SCENES}/cloud.vdb\"\ndensity_grid = \"smoke\"\n"), "no grid named 'smoke'"),
+        ("broken.toml", "[render\nwidth = 3".to_string(), "broken.toml"),
+        ("badphase.toml", format!("[[volume]]\nfile = \"{SCENES}/cloud.vdb\"\n[volume.material]\nsigma_s = 1.0\nphase = {{ type = \"hg\", g = 3.0 }}\n"), "g"),
+    ];
+    for (name, text, needle) in cases {
+        let scene = dir.path().join(name);
+        if !text.is_empty() {
+            std::fs::write(&scene, text).unwrap();
+        }
+        let (code, err) = render(&[
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert_eq!(code, 1, "{name}: {err}");
+        assert_eq!(err.lines().count(), 1, "{name}: {err}");
+        assert!(err.contains(needle), "{name}: '{needle}' not in: {err}");
+        assert!(!err.contains("panicked"), "{name}: {err}");
+        assert!(no_files_in(&out_dir), "{name} left a file behind");
+    }
+    // An output directory that does not exist: an error naming the path,
+    // and nothing written anywhere.
+    let (code, err) = render(&[
+        &format!("{SCENES}/cloud.toml"),
+        "-o",
+        "/nonexistent/dir/x.exr",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--quiet",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("/nonexistent/dir/x.exr"), "{err}");
+    // --spp 0 is refused.
+    let (code, err) = render(&[
+        &format!("{SCENES}/cloud.toml"),
+        "--spp",
+        "0",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(no_files_in(&out_dir));
+}
