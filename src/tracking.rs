@@ -18,6 +18,25 @@ use crate::medium::{Media, MediumPoint};
 use crate::sampling::Rng;
 use crate::Rgb;
 use glam::Vec3;
+use std::cell::Cell;
+
+thread_local! {
+    static LOOKUPS: Cell<u64> = const { Cell::new(0) };
+    static REAL: Cell<u64> = const { Cell::new(0) };
+}
+
+/// Counters of the calling thread: tentative collisions (each a lookup of
+/// the media) and the real collisions integrators report with
+/// [`count_real_collision`]. For benchmarks; reading resets them.
+pub fn take_counters() -> (u64, u64) {
+    (LOOKUPS.with(|c| c.replace(0)), REAL.with(|c| c.replace(0)))
+}
+
+/// Records a real (absorption or scattering) collision.
+#[inline]
+pub fn count_real_collision() {
+    REAL.with(|c| c.set(c.get() + 1));
+}
 
 /// What the callback of [`sample_t_maj`] sees at a tentative collision.
 #[derive(Debug, Clone, Copy)]
@@ -59,6 +78,7 @@ pub fn sample_t_maj(
                 return true;
             }
             let p = o + d * t;
+            LOOKUPS.with(|c| c.set(c.get() + 1));
             let c = Collision {
                 t,
                 p,

@@ -217,10 +217,11 @@ fn majorants_bound_every_lookup_on_random_grids() {
 #[test]
 fn majorant_grid_needs_fewer_lookups_than_a_global_bound() {
     // Expected tentative collisions along a ray = ∫ majorant dt. Over random
-    // rays through the generated cloud the per-brick grid measures 1.80x
-    // fewer than one global majorant (cloud96: 2.22x; even 2-voxel cells
-    // reach only 2.0x and 2.5x: these clouds are dense over most of their
-    // box). The bound guards against a majorant grid that stops adapting.
+    // rays through the bounding box of the generated cloud, the per-brick
+    // grid needs 1.48x fewer than one global majorant over the same box
+    // (measured): the cloud is dense over most of its box, so no
+    // max-density grid can do much better on such rays. The bound guards
+    // against a majorant grid that stops adapting.
     let g = generate::cloud(96, 3).unwrap();
     let m = MajorantGrid::build(&g, 8).unwrap();
     m.validate(&g, 10).unwrap();
@@ -245,13 +246,14 @@ fn majorant_grid_needs_fewer_lookups_than_a_global_bound() {
     }
     let ratio = e_global / e_grid;
     eprintln!("expected lookups: global majorant / majorant grid = {ratio:.2}");
-    assert!(ratio >= 1.7, "the majorant grid saves only {ratio:.2}x");
+    assert!(ratio >= 1.35, "the majorant grid saves only {ratio:.2}x");
 }
 
 #[test]
 fn dda_exact_entry_exit_and_signed_zero_directions() {
-    // A grid of two voxels at x = 0 and 1 (values 1, 2): the majorant box
-    // is padded to [-1, 8) in index space with 8-voxel cells.
+    // A grid of two voxels at x = 0 and 1 (values 1, 2) in one brick: the
+    // majorant box is that brick widened by one voxel, [-1, 8] in index
+    // space, with 8-voxel cells.
     let mut p = GridParts::new("d", 0.0f32, DAffine3::IDENTITY);
     p.brick_origins.push(IVec3::ZERO);
     let mut vals = vec![0.0f32; 512];
@@ -263,13 +265,13 @@ fn dda_exact_entry_exit_and_signed_zero_directions() {
     let m = MajorantGrid::build(&g, 8).unwrap();
     let (lo, hi) = m.bounds();
     assert_eq!(lo, Vec3::splat(-1.0));
-    assert_eq!(hi, Vec3::splat(15.0));
-    // Along +x from outside: enters at x = -1, leaves at 15.
+    assert_eq!(hi, Vec3::splat(8.0));
+    // Along +x from outside: enters at x = -1, leaves at 8.
     let segs: Vec<_> = m
         .walk(Vec3::new(-5.0, 0.5, 0.5), Vec3::X, 0.0, f32::INFINITY)
         .collect();
     assert_eq!(segs.first().unwrap().t0, 4.0);
-    assert_eq!(segs.last().unwrap().t1, 20.0);
+    assert_eq!(segs.last().unwrap().t1, 13.0);
     assert_eq!(segs.len(), 2);
     assert_eq!(segs[0].t1, 12.0);
     assert_eq!(segs[0].max_density, 2.0);
@@ -303,7 +305,7 @@ fn dda_exact_entry_exit_and_signed_zero_directions() {
     let s: Vec<_> = m
         .walk(Vec3::new(20.0, 3.0, 3.0), -Vec3::X, 0.0, f32::INFINITY)
         .collect();
-    assert_eq!((s[0].t0, s.last().unwrap().t1), (5.0, 21.0));
+    assert_eq!((s[0].t0, s.last().unwrap().t1), (12.0, 21.0));
 }
 
 #[test]

@@ -141,10 +141,12 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
             }
             let u = rng.next_f32() * total;
             if u < wa {
+                tracking::count_real_collision();
                 terminated = true;
                 return false;
             }
             if u < wa + ws {
+                tracking::count_real_collision();
                 depth += 1;
                 if depth > settings.max_bounces {
                     terminated = true;

@@ -19,6 +19,9 @@ use glam::{IVec3, Vec3};
 pub struct MajorantGrid {
     /// Index-space position of the corner of cell (0,0,0).
     origin: Vec3,
+    /// Upper corner of the region a lookup can see nonzero values in (the
+    /// last cells may extend past it; walks are clipped to it).
+    upper: Vec3,
     /// Voxels per cell edge.
     cell: i32,
     res: IVec3,
@@ -48,15 +51,19 @@ impl MajorantGrid {
         }
         Some(Self {
             origin: lo.as_vec3(),
+            // Lookups at p read voxels floor(p) and floor(p) + 1: beyond
+            // hi + 1 (hi already padded by one) they see only background.
+            upper: hi.as_vec3(),
             cell,
             res,
             max_density,
         })
     }
 
-    /// The index-space box the grid covers, `[lo, hi)`.
+    /// The index-space box outside which every lookup is background: the
+    /// stored voxels' bounds widened by one voxel on each side.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        (self.origin, self.origin + (self.res * self.cell).as_vec3())
+        (self.origin, self.upper)
     }
 
     pub fn resolution(&self) -> IVec3 {

@@ -146,6 +146,14 @@ impl Volume {
     pub fn world_bounds(&self) -> (Vec3, Vec3) {
         self.world_bounds
     }
+
+    /// Rebuilds the majorant grid with cells of `cell` voxels (a cell larger
+    /// than the grid gives one global majorant). For benchmarks.
+    pub fn set_majorant_cell(&mut self, cell: i32) {
+        if let Some(m) = MajorantGrid::build(&self.density, cell.max(1)) {
+            self.majorant = m;
+        }
+    }
     pub fn density(&self) -> &Grid<f32> {
         &self.density
     }
@@ -219,6 +227,9 @@ impl Media {
     }
     pub fn volumes(&self) -> &[Volume] {
         &self.volumes
+    }
+    pub fn volumes_mut(&mut self) -> &mut [Volume] {
+        &mut self.volumes
     }
     pub fn is_empty(&self) -> bool {
         self.volumes.is_empty()

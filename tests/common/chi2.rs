@@ -95,6 +95,19 @@ pub fn chi2_test(
     n: usize,
     res_cos: usize,
     res_phi: usize,
+    sample: impl FnMut(usize) -> Option<Vec3>,
+    pdf: impl Fn(Vec3) -> f64,
+) -> Chi2Result {
+    chi2_test_with(n, res_cos, res_phi, 8, sample, pdf)
+}
+
+/// As [`chi2_test`], with `phi_sub` Simpson intervals in φ per bin (raise
+/// it for densities with jumps in φ, such as environment maps).
+pub fn chi2_test_with(
+    n: usize,
+    res_cos: usize,
+    res_phi: usize,
+    phi_sub: usize,
     mut sample: impl FnMut(usize) -> Option<Vec3>,
     pdf: impl Fn(Vec3) -> f64,
 ) -> Chi2Result {
@@ -128,7 +141,7 @@ pub fn chi2_test(
             2.0 * PI * (p + 1) as f64 / res_phi as f64,
         );
         let over_phi = |cz: f64| {
-            let sub = 8;
+            let sub = phi_sub;
             let s = (1.0 - cz * cz).max(0.0).sqrt();
             let mut sum = 0.0;
             for j in 0..=sub {
