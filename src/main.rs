@@ -43,6 +43,18 @@ enum Command {
         /// The reference (EXR).
         reference: PathBuf,
     },
+    /// Write a grid as a dense Mitsuba `.vol` file (for comparison renders):
+    /// the active bounding box padded by one voxel, cell centres on the
+    /// voxel centres; the header's box is the world-space box of the cells.
+    ExportVol {
+        /// The .vdb file.
+        file: PathBuf,
+        /// Output .vol file.
+        out: PathBuf,
+        /// The grid to export.
+        #[arg(long, default_value = "density")]
+        grid: String,
+    },
     /// Write a deterministic procedural volume as a .vdb file.
     Generate {
         /// What to make: a cloud (one `density` grid) or a plume laid out like
@@ -462,9 +474,70 @@ fn render(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// Mitsuba's binary volume format: "VOL", version 3, encoding 1 (float32),
+/// x/y/z resolution, channels, bounding box (6 floats), then the values with
+/// x varying fastest.
+fn export_vol(file: &std::path::Path, out: &std::path::Path, grid: &str) -> Result<()> {
+    let g = VdbFile::open(file)?.read_float(grid)?;
+    let m = g.world_from_index().matrix3;
+    if m.x_axis.y != 0.0
+        || m.x_axis.z != 0.0
+        || m.y_axis.x != 0.0
+        || m.y_axis.z != 0.0
+        || m.z_axis.x != 0.0
+        || m.z_axis.y != 0.0
+    {
+        return Err(Error::grid(
+            file,
+            grid,
+            "export-vol needs an axis-aligned (scale and translate) transform",
+        ));
+    }
+    let (lo, hi) = g
+        .active_bounds()
+        .ok_or_else(|| Error::grid(file, grid, "the grid has no active voxels"))?;
+    let (lo, hi) = (lo - 1, hi + 1);
+    let res = hi - lo + 1;
+    let mut bytes: Vec<u8> = b"VOL".to_vec();
+    bytes.push(3);
+    for v in [1i32, res.x, res.y, res.z, 1] {
+        bytes.extend(v.to_le_bytes());
+    }
+    let wlo = g.index_to_world(lo.as_dvec3() - 0.5);
+    let whi = g.index_to_world(hi.as_dvec3() + 0.5);
+    for v in [wlo.x, wlo.y, wlo.z, whi.x, whi.y, whi.z] {
+        bytes.extend((v as f32).to_le_bytes());
+    }
+    for z in lo.z..=hi.z {
+        for y in lo.y..=hi.y {
+            for x in lo.x..=hi.x {
+                bytes.extend(g.get(glam::IVec3::new(x, y, z)).to_le_bytes());
+            }
+        }
+    }
+    let tmp = vdb::temp_path_for(out);
+    std::fs::write(&tmp, &bytes)
+        .and_then(|_| std::fs::rename(&tmp, out))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            Error::io(out, e)
+        })?;
+    eprintln!(
+        "wrote {} ({} x {} x {} voxels, world box {:?} .. {:?})",
+        out.display(),
+        res.x,
+        res.y,
+        res.z,
+        wlo.to_array(),
+        whi.to_array()
+    );
+    Ok(())
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => render(a),
+        Command::ExportVol { file, out, grid } => export_vol(&file, &out, &grid),
         Command::Compare { image, reference } => {
             let a = vdbphoton::image::read_exr_rgb(&image)?;
             let b = vdbphoton::image::read_exr_rgb(&reference)?;

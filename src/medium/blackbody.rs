@@ -98,3 +98,48 @@ pub fn blackbody_rgb_cycles(t: f32) -> Rgb {
         ((b[0] * t + b[1]) * t + b[2]) * t + b[3],
     )
 }
+
+/// CIE 1931 2° colour matching functions, by the multi-lobe Gaussian fit of
+/// Wyman, Sloan & Shirley 2013 ("Simple Analytic Approximations to the CIE
+/// XYZ Color Matching Functions"), λ in nm.
+fn cie_xyz(lambda: f64) -> [f64; 3] {
+    let g = |mu: f64, s1: f64, s2: f64| {
+        let t = (lambda - mu) / if lambda < mu { s1 } else { s2 };
+        (-0.5 * t * t).exp()
+    };
+    [
+        1.056 * g(599.8, 37.9, 31.0) + 0.362 * g(442.0, 16.0, 26.7) - 0.065 * g(501.1, 20.4, 26.2),
+        0.821 * g(568.8, 46.9, 40.5) + 0.286 * g(530.9, 16.3, 31.1),
+        1.217 * g(437.0, 11.8, 36.0) + 0.681 * g(459.0, 26.0, 13.8),
+    ]
+}
+
+/// Blackbody colour of temperature `t` (K) from first principles: Planck's
+/// law integrated against the CIE 1931 observer (360–830 nm, 1 nm steps),
+/// converted to linear Rec.709 and normalised to luminance 1 — the quantity
+/// Cycles' fit approximates. The renderer uses [`blackbody_rgb_cycles`] so
+/// that images match Blender; this one measures that fit. The largest
+/// channel difference relative to the largest channel is 1.72 % over
+/// 2000–12000 K and 6.53 % over 1000–2000 K (the fit's green is low there:
+/// 0.039 against 0.123 at 1000 K), as `tests/medium.rs` measures and bounds.
+pub fn blackbody_rgb_planck(t: f32) -> Rgb {
+    const H: f64 = 6.626_070_15e-34;
+    const C: f64 = 2.997_924_58e8;
+    const K: f64 = 1.380_649e-23;
+    let t = t.max(1.0) as f64;
+    let mut xyz = [0.0f64; 3];
+    for nm in 360..=830 {
+        let l = nm as f64 * 1e-9;
+        let b = 2.0 * H * C * C / l.powi(5) / ((H * C / (l * K * t)).exp_m1());
+        let c = cie_xyz(nm as f64);
+        for i in 0..3 {
+            xyz[i] += b * c[i];
+        }
+    }
+    let [x, y, z] = xyz.map(|v| v / xyz[1]);
+    Rgb::new(
+        (3.240_454_2 * x - 1.537_138_5 * y - 0.498_531_4 * z) as f32,
+        (-0.969_266 * x + 1.876_010_8 * y + 0.041_556 * z) as f32,
+        (0.055_643_4 * x - 0.204_025_9 * y + 1.057_225_2 * z) as f32,
+    )
+}
