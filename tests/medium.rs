@@ -78,12 +78,11 @@ fn principled_blackbody_emission() {
     let g = -1.42529332e3 / t - 4.01150431e-5 * t + 1.43972784;
     let b = ((-1.97075738e-11 * t + 1.75359352e-7) * t - 2.50542825e-4) * t - 2.22783266e-2;
     let want = [r * intensity, g * intensity, b * intensity];
-    for c in 0..3 {
+    for (c, w) in want.iter().enumerate() {
+        let got = p.emission[c] as f64;
         assert!(
-            ((p.emission[c] as f64) - want[c]).abs() < 1e-4 * want[c].abs().max(1e-3),
-            "channel {c}: {} vs {}",
-            p.emission[c],
-            want[c]
+            (got - w).abs() < 1e-4 * w.abs().max(1e-3),
+            "channel {c}: {got} vs {w}"
         );
     }
     // No temperature: no emission where T = 0 (blackbody intensity 1).
