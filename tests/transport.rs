@@ -448,3 +448,76 @@ fn image_is_the_same_on_one_and_two_threads() {
     );
     assert_ne!(a.rgb, c.rgb);
 }
+
+#[test]
+fn overlapping_volumes_add_their_extinction() {
+    // Two boxes, the second shifted by 0.5 along x and 0.3 along y: along a
+    // ray through both, optical depths add wherever they overlap.
+    let m1 = raw(
+        Rgb::splat(0.2),
+        Rgb::new(0.3, 0.5, 0.7),
+        PhaseFunction::Isotropic,
+    );
+    let m2 = raw(
+        Rgb::splat(0.1),
+        Rgb::new(0.6, 0.2, 0.1),
+        PhaseFunction::hg(0.5),
+    );
+    let shift = DAffine3::from_translation(DVec3::new(0.5, 0.3, 0.0));
+    let v1 = Volume::new(
+        "a",
+        common::unit_box_grid(),
+        ExtraGrids::default(),
+        m1.clone(),
+        DAffine3::IDENTITY,
+    )
+    .unwrap();
+    let v2 = Volume::new(
+        "b",
+        common::unit_box_grid(),
+        ExtraGrids::default(),
+        m2.clone(),
+        shift,
+    )
+    .unwrap();
+    let media = Media::new(vec![v1, v2]);
+    let o = Vec3::new(-4.0, 0.0, 0.1);
+    let st1 = Rgb::new(0.5, 0.7, 0.9);
+    let st2 = Rgb::new(0.7, 0.3, 0.2);
+    let want = (-(st1 * 2.0 + st2 * 2.0)).map(f32::exp);
+    let tau = optical_depth(&media, o, Vec3::X, 0.0, 8.0, 8192, 0.5);
+    assert!(
+        (tau - (st1 + st2) * 2.0).abs().max_element() < 3e-3,
+        "optical depth {tau}"
+    );
+    let n = 40_000;
+    for c in 0..3 {
+        let est: Vec<f64> = (0..n)
+            .map(|i| {
+                transmittance(&media, o, Vec3::X, f32::INFINITY, &mut Rng::new(8, 0, i))[c] as f64
+            })
+            .collect();
+        let (m, se) = stats(&est);
+        assert!(
+            (m - want[c] as f64).abs() < 4.0 * se + 1e-4,
+            "channel {c}: {m} ± {se} vs {}",
+            want[c]
+        );
+    }
+    // In the overlap the coefficients are the sums; outside it, one box's.
+    let both = media.eval(Vec3::new(0.7, 0.5, 0.0));
+    assert!((both.sigma_s - Rgb::new(0.9, 0.7, 0.8)).abs().max_element() < 1e-5);
+    let one = media.eval(Vec3::new(-0.8, 0.0, 0.0));
+    assert!((one.sigma_s - Rgb::new(0.3, 0.5, 0.7)).abs().max_element() < 1e-5);
+    // The phase function in the overlap is chosen in proportion to σs.
+    let mut hg = 0;
+    for i in 0..10_000 {
+        if media.phase_at(Vec3::new(0.7, 0.5, 0.0), Rng::new(1, 1, i).next_f32())
+            != PhaseFunction::Isotropic
+        {
+            hg += 1;
+        }
+    }
+    let p = 0.9 / 2.4; // avg σs of the second / avg of both
+    assert!(((hg as f64 / 10_000.0) - p).abs() < 0.02, "{hg}");
+}
