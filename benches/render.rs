@@ -34,7 +34,7 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(64);
     let desc = SceneDesc::load(&scene).unwrap();
-    let truth = read_exr_rgb(&data.join("reference/mitsuba_2048.exr")).unwrap();
+    let truth = read_exr_rgb(data.join("reference/mitsuba_2048.exr")).unwrap();
     let r = &desc.render;
     let settings = Settings {
         width: r.width,

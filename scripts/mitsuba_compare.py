@@ -11,7 +11,8 @@ Writes DIR/density.vol (the dense grid), DIR/mitsuba.exr, DIR/vdbphoton.exr
 (and DIR/vdbphoton.png, the preview, so the scene's own preview path is not
 touched) and prints the Mitsuba render time, the vdbphoton wall time and the
 line printed by `vdbphoton compare DIR/vdbphoton.exr DIR/mitsuba.exr`
-(the Mitsuba image is the reference). DIR defaults to ./mitsuba_compare_out.
+(the Mitsuba image is the reference). DIR defaults to out/mitsuba_compare in
+the repository (git-ignored).
 
 Set-up on Debian 12 (from a clean checkout):
 
@@ -385,7 +386,7 @@ def main():
     ap.add_argument("scene", type=Path)
     ap.add_argument("--spp-mitsuba", type=int, default=256)
     ap.add_argument("--spp-vdbphoton", type=int, default=256)
-    ap.add_argument("--out", type=Path, default=Path("mitsuba_compare_out"))
+    ap.add_argument("--out", type=Path, default=REPO / "out" / "mitsuba_compare")
     ap.add_argument("--seed-mitsuba", type=int, default=1,
                     help="seed of Mitsuba's first pass (pass i uses seed + i)")
     ap.add_argument("--max-lanes", type=int, default=1 << 22,
@@ -434,6 +435,13 @@ def main():
     res = run([a.vdbphoton, "compare", out / "vdbphoton.exr", out / "mitsuba.exr"])
     print("vdbphoton vs Mitsuba (reference):")
     sys.stdout.write(res.stdout + res.stderr)
+    means = {}
+    for name in ("vdbphoton", "mitsuba"):
+        t = mi.TensorXf(mi.Bitmap(str(out / f"{name}.exr")))
+        means[name] = [float(dr.mean(t[..., c].array)[0]) for c in range(3)]
+    print("per-channel means R, G, B: vdbphoton " + fmt(means["vdbphoton"]) + ", mitsuba "
+          + fmt(means["mitsuba"]) + ", ratio "
+          + fmt([a / b if b else float("nan") for a, b in zip(means["vdbphoton"], means["mitsuba"])]))
 
 
 if __name__ == "__main__":

@@ -42,6 +42,10 @@ enum Command {
         image: PathBuf,
         /// The reference (EXR).
         reference: PathBuf,
+        /// Also write a false-colour difference image (red: image brighter,
+        /// blue: darker).
+        #[arg(long)]
+        diff: Option<PathBuf>,
     },
     /// Write a grid as a dense Mitsuba `.vol` file (for comparison renders):
     /// the active bounding box padded by one voxel, cell centres on the
@@ -404,11 +408,29 @@ fn render(a: RenderArgs) -> Result<()> {
     let render_s = t_render.elapsed().as_secs_f64();
     let t_write = Instant::now();
     let (w, h) = (film.width as usize, film.height as usize);
-    let alpha: Vec<f32> = film
-        .transmittance
+    let rgba: Vec<glam::Vec4> = film
+        .rgb
         .iter()
-        .map(|t| (1.0 - t).clamp(0.0, 1.0))
+        .zip(&film.transmittance)
+        .map(|(c, t)| c.extend((1.0 - t).clamp(0.0, 1.0)))
         .collect();
+    let mut image = vdbphoton::image::Image::from_pixels(w, h, rgba)?;
+    if r.aovs {
+        for (name, data) in [
+            ("direct", &film.direct),
+            ("indirect", &film.indirect),
+            ("emission", &film.emission),
+        ] {
+            let layer = image.add_rgb_layer(name)?;
+            for (i, c) in data.iter().enumerate() {
+                layer.set(i % w, i / w, &c.to_array());
+            }
+        }
+        let layer = image.add_layer("transmittance", &["Y"])?;
+        for (i, t) in film.transmittance.iter().enumerate() {
+            layer.set(i % w, i / w, &[*t]);
+        }
+    }
     let attrs = vec![
         (
             "vdbphoton/version".to_string(),
@@ -426,35 +448,9 @@ fn render(a: RenderArgs) -> Result<()> {
         ),
         ("vdbphoton/scene".to_string(), a.scene.display().to_string()),
     ];
-    let aovs = if r.aovs {
-        vec![
-            vdbphoton::image::Aov {
-                name: "direct",
-                rgb: Some(&film.direct),
-                gray: None,
-            },
-            vdbphoton::image::Aov {
-                name: "indirect",
-                rgb: Some(&film.indirect),
-                gray: None,
-            },
-            vdbphoton::image::Aov {
-                name: "emission",
-                rgb: Some(&film.emission),
-                gray: None,
-            },
-            vdbphoton::image::Aov {
-                name: "transmittance",
-                rgb: None,
-                gray: Some(&film.transmittance),
-            },
-        ]
-    } else {
-        Vec::new()
-    };
-    vdbphoton::image::write_exr(&r.output, w, h, &film.rgb, &alpha, &aovs, &attrs)?;
+    vdbphoton::image::write_exr(&r.output, &image, &attrs)?;
     if let Some(p) = &r.preview {
-        vdbphoton::image::write_png(p, w, h, &film.rgb, r.exposure)?;
+        vdbphoton::image::write_png_preview(p, &image, r.exposure)?;
     }
     if !quiet {
         eprintln!(
@@ -538,14 +534,25 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => render(a),
         Command::ExportVol { file, out, grid } => export_vol(&file, &out, &grid),
-        Command::Compare { image, reference } => {
+        Command::Compare {
+            image,
+            reference,
+            diff,
+        } => {
             let a = vdbphoton::image::read_exr_rgb(&image)?;
             let b = vdbphoton::image::read_exr_rgb(&reference)?;
             let m = vdbphoton::image::compare(&a, &b)?;
             println!(
                 "mean {:.6}  reference mean {:.6}  ratio {:.5}  RMSE {:.6}  relMSE {:.3e}  PSNR {:.2} dB",
-                m.mean, m.mean_reference, m.mean_ratio, m.rmse, m.rel_mse, m.psnr
+                m.mean_a, m.mean_b, m.mean_ratio, m.rmse, m.rel_mse, m.psnr
             );
+            if let Some(d) = diff {
+                let scale = vdbphoton::image::write_diff_png(&d, &a, &b)?;
+                eprintln!(
+                    "wrote {} (full colour at |difference| = {scale:.4})",
+                    d.display()
+                );
+            }
             Ok(())
         }
         Command::Info { file, grid, json } => info(file, grid, json),
