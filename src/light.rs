@@ -138,21 +138,7 @@ impl Light {
             Light::Point {
                 position,
                 intensity,
-            } => {
-                let v = position - p;
-                let d2 = v.length_squared();
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                Some(LightSample {
-                    wi: v / dist,
-                    li: intensity / d2,
-                    pdf: 1.0,
-                    dist,
-                    is_delta: true,
-                })
-            }
+            } => point_sample(position, p, intensity),
             Light::Spot {
                 position,
                 axis,
@@ -160,14 +146,8 @@ impl Light {
                 cos_half,
                 smooth,
             } => {
-                let v = position - p;
-                let d2 = v.length_squared();
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                let wi = v / dist;
-                let cos = (-wi).dot(axis);
+                let mut ls = point_sample(position, p, intensity)?;
+                let cos = (-ls.wi).dot(axis);
                 if cos <= cos_half {
                     return None;
                 }
@@ -178,13 +158,8 @@ impl Light {
                 } else {
                     1.0
                 };
-                Some(LightSample {
-                    wi,
-                    li: intensity * (falloff / d2),
-                    pdf: 1.0,
-                    dist,
-                    is_delta: true,
-                })
+                ls.li *= falloff;
+                Some(ls)
             }
         }
     }
@@ -205,6 +180,24 @@ impl Light {
             _ => (Rgb::ZERO, 0.0),
         }
     }
+}
+
+/// The sample of an isotropic point source of `intensity` at `position`
+/// seen from `p` (inverse-square falloff).
+fn point_sample(position: Vec3, p: Vec3, intensity: Rgb) -> Option<LightSample> {
+    let v = position - p;
+    let d2 = v.length_squared();
+    if d2 <= 0.0 {
+        return None;
+    }
+    let dist = d2.sqrt();
+    Some(LightSample {
+        wi: v / dist,
+        li: intensity / d2,
+        pdf: 1.0,
+        dist,
+        is_delta: true,
+    })
 }
 
 /// What rays that leave every volume see.
