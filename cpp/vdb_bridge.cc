@@ -389,6 +389,17 @@ void write_test_fixture(rust::Str path, rust::Str kind) {
         g->setName("labels");
         g->tree().setValue(Coord(1, 2, 3), 7);
         grids.push_back(g);
+    } else if (k == "double") {
+        // A double grid: vdbphoton reads it as f32. Voxels, an inactive
+        // value, and an 8^3 tile.
+        auto g = openvdb::DoubleGrid::create(0.0);
+        g->setName("density");
+        g->setTransform(openvdb::math::Transform::createLinearTransform(0.25));
+        for (int i = 0; i < 20; ++i)
+            g->tree().setValue(Coord(i, 2 * i - 10, 3), 0.1 + 0.037 * i + 1e-12 * i);
+        g->tree().setValueOff(Coord(5, 5, 5), 0.75);
+        g->tree().addTile(1, Coord(64, 0, 0), 2.5, true);
+        grids.push_back(g);
     } else if (k == "frustum") {
         auto g = openvdb::FloatGrid::create(0.0f);
         g->setName("density");

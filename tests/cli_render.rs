@@ -141,3 +141,41 @@ fn bad_scenes_fail_cleanly_without_output() {
     assert_eq!(code, 1, "{err}");
     assert!(no_files_in(&out_dir));
 }
+
+#[test]
+fn environment_map_from_an_exr_file() {
+    // A constant map of 0.5 at strength 2: rays that miss the cloud see 1.
+    let dir = common::tempdir();
+    let sky = dir.path().join("sky.exr");
+    let img = vdbphoton::image::Image::filled(32, 16, glam::Vec4::new(0.5, 0.5, 0.5, 1.0));
+    vdbphoton::image::write_exr(&sky, &img, &[]).unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "[render]\nwidth = 16\nheight = 12\nspp = 4\n[camera]\nposition = [0.0, -3.0, 0.0]\nvfov = 60.0\n\
+             [environment]\nmap = \"sky.exr\"\nstrength = 2.0\n[[volume]]\nfile = \"{SCENES}/cloud.vdb\"\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("x.exr");
+    let (code, err) = render(&[
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let img = vdbphoton::image::read_exr_rgb(&out).unwrap();
+    assert_eq!(img.get(0, 0), glam::Vec3::splat(1.0));
+    // A map that is not an EXR is an error naming it.
+    std::fs::write(&sky, "not an image").unwrap();
+    let (code, err) = render(&[
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("sky.exr"), "{err}");
+}

@@ -118,10 +118,15 @@ fn cie_xyz(lambda: f64) -> [f64; 3] {
 /// law integrated against the CIE 1931 observer (360–830 nm, 1 nm steps),
 /// converted to linear Rec.709 and normalised to luminance 1 — the quantity
 /// Cycles' fit approximates. The renderer uses [`blackbody_rgb_cycles`] so
-/// that images match Blender; this one measures that fit. The largest
-/// channel difference relative to the largest channel is 1.72 % over
-/// 2000–12000 K and 6.53 % over 1000–2000 K (the fit's green is low there:
-/// 0.039 against 0.123 at 1000 K), as `tests/medium.rs` measures and bounds.
+/// that images match Blender; this one checks that fit from first
+/// principles. The largest channel difference relative to the largest
+/// channel is 1.72 % over 2000–12000 K and 6.53 % over 1000–2000 K, as
+/// `tests/medium.rs` measures and bounds. Below 2000 K the difference is
+/// mostly this function's own error: the analytic colour-matching fit is
+/// too low in the deep red (x̄ about half the tabulated value at 700 nm),
+/// which matters for the red-heavy spectra of cool flames. Integrating
+/// against the tabulated 5 nm CIE 1931 functions instead (not done here)
+/// reproduces Cycles' fit to about 1e-4, a colleague measured.
 pub fn blackbody_rgb_planck(t: f32) -> Rgb {
     const H: f64 = 6.626_070_15e-34;
     const C: f64 = 2.997_924_58e8;

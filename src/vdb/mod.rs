@@ -375,8 +375,10 @@ pub mod reference {
         Ok((s.seconds, s.mem_bytes, s.active_voxels))
     }
 
-    /// Writes a file with an `int32` grid ("int32") or a frustum transform
-    /// ("frustum"), which the reader must refuse with a clear error.
+    /// Writes a file our writer cannot make, for the reader's tests: an
+    /// `int32` grid ("int32") or a frustum transform ("frustum"), which the
+    /// reader must refuse, or a `double` grid ("double"), which it reads as
+    /// f32.
     pub fn write_unsupported_fixture(path: &Path, kind: &str) -> Result<()> {
         bridge::write_test_fixture(path_str(path)?, kind)
             .map_err(|e| Error::file(path, e.what().to_string()))
