@@ -50,13 +50,14 @@ fn main() {
         r.height,
         rayon::current_num_threads()
     );
-    for (label, cell) in [
-        ("majorant grid (8^3 cells)", 8),
-        ("global majorant", 1 << 20),
+    for (label, cell, minorant) in [
+        ("majorant grid (8^3 cells) with minorant", 8, true),
+        ("majorant grid (8^3 cells), majorant only", 8, false),
+        ("global majorant", 1 << 20, false),
     ] {
         let mut world = World::load(&desc).unwrap();
         for v in world.media.volumes_mut() {
-            v.set_majorant_cell(cell);
+            v.set_majorant_cell(cell, minorant);
         }
         let t0 = Instant::now();
         let film = integrator::render(&world, &settings, &|_, _| {});
@@ -72,7 +73,7 @@ fn main() {
             .num_threads(1)
             .build()
             .unwrap();
-        let (lookups, real, n) = one.install(|| {
+        let (counters, n) = one.install(|| {
             tracking::take_counters();
             let mut n = 0u64;
             for y in (0..r.height).step_by(4) {
@@ -81,9 +82,9 @@ fn main() {
                     n += spp as u64;
                 }
             }
-            let (l, re) = tracking::take_counters();
-            (l, re, n)
+            (tracking::take_counters(), n)
         });
+        let lookups = counters.lookups;
         // The same share of the render's lookups per second.
         let lookups_per_sample = lookups as f64 / n as f64;
         println!("\n== {label}");
@@ -93,8 +94,9 @@ fn main() {
             samples * lookups_per_sample / secs / 1e6
         );
         println!(
-            "  {lookups_per_sample:.1} lookups per sample (camera path, shadow rays and alpha); real collisions {:.1} % of tentative ones",
-            100.0 * real as f64 / lookups as f64
+            "  {lookups_per_sample:.2} lookups per sample (camera path, shadow rays and alpha), {:.2} tentative collisions; real collisions {:.1} % of tentative ones",
+            counters.tentative as f64 / n as f64,
+            100.0 * counters.real as f64 / counters.tentative as f64
         );
         println!(
             "  vs Mitsuba 2048 spp: mean ratio {:.5}, relMSE {:.3e}",

@@ -546,6 +546,45 @@ impl<T: GridValue> Grid<T> {
         self.sample_index_f64(self.world_to_index(p))
     }
 
+    /// [min, max] of the voxels `o ..= o + 8` along each axis, `o` a multiple
+    /// of 8: exactly the values that trilinear lookups at index points in
+    /// `[o, o + 8)³` read. Built from the block's own range and the faces,
+    /// edges and corner of its +x, +y and +z neighbours, so a majorant cell
+    /// of one block is as tight as a 9³ box allows (a box query through
+    /// [`Self::range_in_box`] would take whole neighbouring bricks, 16³).
+    pub fn block_lookup_range(&self, o: IVec3) -> [T; 2] {
+        debug_assert!(o & 7 == IVec3::ZERO);
+        let range_of = |k: i32| {
+            let off = IVec3::new(k & 1, (k >> 1) & 1, k >> 2);
+            let s = self.slot(o + off * 8);
+            if s & CONST_BIT != 0 {
+                let c = self.constants[(s & !CONST_BIT) as usize];
+                return [c, c];
+            }
+            if k == 0 {
+                return self.ranges[s as usize];
+            }
+            // Only the layer of this neighbour next to the block: one voxel
+            // thick along each axis it is offset on.
+            let n = |a: i32| if a == 1 { 1 } else { 8 };
+            let vals = self.brick_values(s as usize);
+            let mut r = [vals[0], vals[0]];
+            for x in 0..n(off.x) {
+                for y in 0..n(off.y) {
+                    for z in 0..n(off.z) {
+                        let v = vals[((x << 6) | (y << 3) | z) as usize];
+                        r = [T::min(r[0], v), T::max(r[1], v)];
+                    }
+                }
+            }
+            r
+        };
+        (1..8).fold(range_of(0), |[lo, hi], k| {
+            let r = range_of(k);
+            [T::min(lo, r[0]), T::max(hi, r[1])]
+        })
+    }
+
     /// [min, max] of every value that a lookup in the inclusive voxel box
     /// `lo..=hi` can read, or `None` when the box is empty. Values outside
     /// the stored region count as the background. Used to build majorants.

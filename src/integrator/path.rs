@@ -4,18 +4,18 @@
 //! measured against.
 //!
 //! - Free flights by delta tracking against the majorant grid
-//!   ([`tracking::sample_t_maj`]). At each tentative collision with majorant
-//!   σ̄ the path adds emission β·σa·Le/σ̄ and then chooses a real collision
-//!   or a null collision (σn = σ̄ − σt) with probabilities proportional to
-//!   avg(β·σt) and avg(β·σn). A real collision scatters with β multiplied
-//!   by σs/(σ̄·Pt); a null one goes on with β multiplied by σn/(σ̄·Pn). This
-//!   is spectral tracking with history-aware probabilities (Kutz, Habel, Li
-//!   & Novák 2017, §5), unbiased for RGB coefficients, with absorption
-//!   carried as a weight instead of ending the path (Mitsuba 3's `volpath`
-//!   does the same): for grey media β falls by the albedo at each
-//!   scattering event. Ending paths on absorption is the analog estimator;
-//!   on the reference cloud (albedo 0.91) it costs 1.5x the variance at
-//!   256 spp, because most light there has scattered many times.
+//!   ([`tracking::sample_t_maj`]); at each tentative collision with
+//!   majorant σ̄ the path adds emission β·σa·Le/σ̄ and lets
+//!   [`tracking::collide`] choose a real or a null collision: spectral
+//!   tracking with history-aware probabilities (Kutz, Habel, Li & Novák
+//!   2017), unbiased for RGB coefficients, with decomposition tracking
+//!   against the majorant grid's minorant where the albedo is uniform.
+//!   Absorption is carried as a weight instead of ending the path (Mitsuba
+//!   3's `volpath` does the same): for grey media β falls by the albedo at
+//!   each scattering event. Ending paths on absorption is the analog
+//!   estimator; on the reference cloud (albedo 0.91) it costs 1.5x the
+//!   variance at 256 spp, because most light there has scattered many
+//!   times.
 //! - Next-event estimation to every light at every real scattering event,
 //!   with ratio-tracked transmittance; multiple importance sampling (power
 //!   heuristic, Veach 1997) between light and phase sampling for the lights
@@ -43,11 +43,6 @@ const RR_DEPTH: u32 = 3;
 /// 0.5 → 3.00e-3, 0.25 → 3.09e-3, 0.1 → 3.34e-3; 0.25 keeps most of the
 /// variance gain of weighting (relMSE 2.17e-4 against 3.30e-4 with 1).
 pub const RR_THRESHOLD: f32 = 0.25;
-
-#[inline]
-fn avg(c: Rgb) -> f32 {
-    (c.x + c.y + c.z) * (1.0 / 3.0)
-}
 
 /// Light arriving at `p` along each light's sample, times the phase
 /// function and the transmittance, for NEE from a scattering event.
@@ -133,61 +128,48 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
         let mut new_dir = ray_d;
         let mut new_o = ray_o;
         let mut new_pdf = 0.0;
+        let control = media.control_albedo();
         sample_t_maj(media, ray_o, ray_d, f32::INFINITY, rng, |c, rng| {
-            let m = &c.medium;
-            if m.emission.max_element() > 0.0 {
-                let e = beta * m.emission / c.sigma_maj;
-                res.l += e;
-                res.emission += e;
+            let Some(step) = tracking::collide(c, control, beta, rng) else {
+                terminated = true;
+                return false;
+            };
+            if let Some(m) = &step.medium {
+                if m.emission.max_element() > 0.0 {
+                    let e = beta * m.emission / c.sigma_maj;
+                    res.l += e;
+                    res.emission += e;
+                }
             }
-            let sigma_n = (Rgb::splat(c.sigma_maj) - m.sigma_t()).max(Rgb::ZERO);
-            let (wt, ws, wn) = (
-                avg(beta * m.sigma_t()),
-                avg(beta * m.sigma_s),
-                avg(beta * sigma_n),
-            );
-            let total = wt + wn;
-            if total <= 0.0 {
+            beta *= step.weight;
+            if !step.scatter {
+                return true;
+            }
+            depth += 1;
+            if depth > settings.max_bounces || beta.max_element() <= 0.0 {
                 terminated = true;
                 return false;
             }
-            let u = rng.next_f32() * total;
-            if u < wt {
-                tracking::count_real_collision();
-                if ws <= 0.0 {
-                    terminated = true;
-                    return false;
-                }
-                depth += 1;
-                if depth > settings.max_bounces {
-                    terminated = true;
-                    return false;
-                }
-                beta *= m.sigma_s * (total / wt) / c.sigma_maj;
-                let wo = -ray_d;
-                let phase = media.phase_at(c.p, rng.next_f32());
-                let ld = beta * direct_light(world, media, c.p, wo, &phase, rng);
-                res.l += ld;
-                if depth == 1 {
-                    res.direct += ld;
-                } else {
-                    res.indirect += ld;
-                }
-                match phase.sample(wo, rng.next_vec2()) {
-                    Some(ps) if ps.pdf > 0.0 => {
-                        beta *= ps.p / ps.pdf;
-                        new_dir = ps.wi;
-                        new_o = c.p;
-                        new_pdf = ps.pdf;
-                        scattered = true;
-                    }
-                    _ => terminated = true,
-                }
-                return false;
+            let wo = -ray_d;
+            let phase = media.phase_at(c.p, rng.next_f32());
+            let ld = beta * direct_light(world, media, c.p, wo, &phase, rng);
+            res.l += ld;
+            if depth == 1 {
+                res.direct += ld;
+            } else {
+                res.indirect += ld;
             }
-            // Null collision.
-            beta *= sigma_n * (total / wn) / c.sigma_maj;
-            true
+            match phase.sample(wo, rng.next_vec2()) {
+                Some(ps) if ps.pdf > 0.0 => {
+                    beta *= ps.p / ps.pdf;
+                    new_dir = ps.wi;
+                    new_o = c.p;
+                    new_pdf = ps.pdf;
+                    scattered = true;
+                }
+                _ => terminated = true,
+            }
+            false
         });
         if terminated {
             break;

@@ -2,10 +2,14 @@
 //! `DDAMajorantIterator`; Amanatides & Woo 1987 for the traversal).
 //!
 //! A coarse grid over a volume's index space whose cells hold an upper bound
-//! of the density that trilinear lookups anywhere in the cell can return.
-//! Delta and ratio tracking sample tentative collisions against it, so the
-//! tighter it is the fewer lookups they need; a bound that is too low biases
-//! every image silently, hence [`MajorantGrid::validate`] and its tests.
+//! (majorant) and a lower bound (minorant) of the density that trilinear
+//! lookups anywhere in the cell can return. Delta and ratio tracking sample
+//! tentative collisions against the majorant, so the tighter it is the fewer
+//! lookups they need; the minorant is the homogeneous control medium of
+//! residual ratio tracking and decomposition tracking (Novák et al. 2014;
+//! Kutz et al. 2017), which need lookups only for the residual between the
+//! two. A bound on the wrong side biases every image silently, hence
+//! [`MajorantGrid::validate`] and its tests.
 //!
 //! A lookup at index point `p` reads voxels `floor(p)` and `floor(p) + 1`
 //! along each axis, so the cell covering `[c0, c1)` takes the range of the
@@ -14,18 +18,22 @@
 use crate::grid::Grid;
 use glam::{IVec3, Vec3};
 
-/// Upper bounds of the density per cell, over an index-space box.
+/// Lower and upper bounds of the density per cell, over an index-space box.
 #[derive(Debug, Clone)]
 pub struct MajorantGrid {
     /// Index-space position of the corner of cell (0,0,0).
     origin: Vec3,
+    /// Lower corner of the region a lookup can see nonzero values in (the
+    /// first cells may start before it; walks are clipped to it).
+    lower: Vec3,
     /// Upper corner of the region a lookup can see nonzero values in (the
     /// last cells may extend past it; walks are clipped to it).
     upper: Vec3,
     /// Voxels per cell edge.
     cell: i32,
     res: IVec3,
-    max_density: Vec<f32>,
+    /// `[min, max]` per cell, x fastest.
+    range: Vec<[f32; 2]>,
 }
 
 impl MajorantGrid {
@@ -33,58 +41,81 @@ impl MajorantGrid {
     /// voxel (trilinear lookups just outside it still see its values), with
     /// cells of `cell` voxels. Returns `None` for an empty grid. Densities
     /// below zero count as zero (they are clamped at lookup, as in Cycles).
+    /// Cells that reach outside the stored voxels see the background, which
+    /// the minorant includes.
     pub fn build(density: &Grid<f32>, cell: i32) -> Option<Self> {
         let (lo, hi) = density.stored_bounds()?;
         let lo = lo - 1;
         let hi = hi + 1;
-        let res = (hi - lo + cell) / cell; // ceil((hi - lo + 1) / cell)
+        let (origin, res) = if cell == 8 {
+            // Cells aligned with the bricks, so that each cell's range is the
+            // exact 9³ one of `block_lookup_range`. Lookups stay below `hi`.
+            let origin = (lo >> 3) << 3;
+            (origin, ((hi - 1 - origin) >> 3) + 1)
+        } else {
+            (lo, (hi - lo + cell) / cell) // ceil((hi - lo + 1) / cell)
+        };
         let n = (res.x * res.y * res.z) as usize;
-        let mut max_density = vec![0.0f32; n];
+        let mut range = vec![[0.0f32; 2]; n];
         for z in 0..res.z {
             for y in 0..res.y {
                 for x in 0..res.x {
-                    let c0 = lo + IVec3::new(x, y, z) * cell;
-                    let [_, m] = density.range_in_box(c0, c0 + cell).unwrap_or([0.0, 0.0]);
-                    max_density[((z * res.y + y) * res.x + x) as usize] = m.max(0.0);
+                    let c0 = origin + IVec3::new(x, y, z) * cell;
+                    let [a, b] = if cell == 8 {
+                        density.block_lookup_range(c0)
+                    } else {
+                        density.range_in_box(c0, c0 + cell).unwrap_or([0.0, 0.0])
+                    };
+                    range[((z * res.y + y) * res.x + x) as usize] = [a.max(0.0), b.max(0.0)];
                 }
             }
         }
         Some(Self {
-            origin: lo.as_vec3(),
+            origin: origin.as_vec3(),
+            lower: lo.as_vec3(),
             // Lookups at p read voxels floor(p) and floor(p) + 1: beyond
             // hi + 1 (hi already padded by one) they see only background.
             upper: hi.as_vec3(),
             cell,
             res,
-            max_density,
+            range,
         })
     }
 
     /// The index-space box outside which every lookup is background: the
     /// stored voxels' bounds widened by one voxel on each side.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        (self.origin, self.upper)
+        (self.lower, self.upper)
     }
 
     pub fn resolution(&self) -> IVec3 {
         self.res
     }
 
-    /// The bound of the cell holding index point `p` (0 outside).
-    pub fn lookup(&self, p: Vec3) -> f32 {
+    /// The `[min, max]` bounds of the cell holding index point `p` (zeros
+    /// outside).
+    pub fn lookup(&self, p: Vec3) -> [f32; 2] {
         let c = ((p - self.origin) / self.cell as f32).floor().as_ivec3();
         if c.cmplt(IVec3::ZERO).any() || c.cmpge(self.res).any() {
-            return 0.0;
+            return [0.0; 2];
         }
-        self.max_density[((c.z * self.res.y + c.y) * self.res.x + c.x) as usize]
+        self.range[((c.z * self.res.y + c.y) * self.res.x + c.x) as usize]
+    }
+
+    /// Sets every lower bound to 0 (no control medium). For benchmarks.
+    pub fn clear_minorant(&mut self) {
+        for r in &mut self.range {
+            r[0] = 0.0;
+        }
     }
 
     /// Largest bound anywhere.
     pub fn max(&self) -> f32 {
-        self.max_density.iter().copied().fold(0.0, f32::max)
+        self.range.iter().map(|r| r[1]).fold(0.0, f32::max)
     }
 
-    /// Checks that every cell bounds the trilinear lookups inside it, at
+    /// Checks that every cell bounds the trilinear lookups inside it from
+    /// above and below, at
     /// `samples_per_cell` random points per cell plus its corners. For tests.
     pub fn validate(&self, density: &Grid<f32>, samples_per_cell: u32) -> Result<(), String> {
         let mut state = 0x853c_49e6_748f_ea9bu64;
@@ -98,7 +129,8 @@ impl MajorantGrid {
             for y in 0..self.res.y {
                 for x in 0..self.res.x {
                     let c = IVec3::new(x, y, z);
-                    let bound = self.max_density[((z * self.res.y + y) * self.res.x + x) as usize];
+                    let [lower, bound] =
+                        self.range[((z * self.res.y + y) * self.res.x + x) as usize];
                     let c0 = self.origin + (c * self.cell).as_vec3();
                     let size = self.cell as f32;
                     let check = |p: Vec3| {
@@ -106,6 +138,11 @@ impl MajorantGrid {
                         if v > bound {
                             return Err(format!(
                                 "cell {c}: lookup {v} at {p} above its bound {bound}"
+                            ));
+                        }
+                        if v < lower {
+                            return Err(format!(
+                                "cell {c}: lookup {v} at {p} below its lower bound {lower}"
                             ));
                         }
                         Ok(())
@@ -185,13 +222,16 @@ impl MajorantGrid {
     }
 }
 
-/// One stretch of a ray with a constant majorant density.
+/// One stretch of a ray with constant bounds of the density (of σt, once
+/// `Media` has scaled them).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
     pub t0: f32,
     pub t1: f32,
-    /// Upper bound of the density along `[t0, t1)`.
+    /// Upper bound along `[t0, t1)`.
     pub max_density: f32,
+    /// Lower bound along `[t0, t1)` (≥ 0).
+    pub min_density: f32,
 }
 
 /// Iterator over the cells of a [`MajorantGrid`] along a ray.
@@ -216,7 +256,7 @@ impl Iterator for Dda<'_> {
         }
         let g = self.grid;
         let c = self.cell;
-        let m = g.max_density[((c.z * g.res.y + c.y) * g.res.x + c.x) as usize];
+        let [lo, hi] = g.range[((c.z * g.res.y + c.y) * g.res.x + c.x) as usize];
         // The axis whose boundary comes first.
         let a = if self.next_t.x < self.next_t.y {
             if self.next_t.x < self.next_t.z {
@@ -233,7 +273,8 @@ impl Iterator for Dda<'_> {
         let seg = Segment {
             t0: self.t,
             t1,
-            max_density: m,
+            max_density: hi,
+            min_density: lo,
         };
         self.t = t1;
         self.cell[a] += self.step[a];

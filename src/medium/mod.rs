@@ -65,6 +65,13 @@ pub struct Volume {
     majorant: MajorantGrid,
     /// sigma_t ≤ `sigma_t_per_density` · density, per world unit.
     sigma_t_per_density: f32,
+    /// sigma_t ≥ `sigma_t_min_per_density` · density in every channel (0
+    /// with a colour grid).
+    sigma_t_min_per_density: f32,
+    /// sigma_s / sigma_t wherever the density is > 0, when that is a
+    /// constant and the volume does not emit (what decomposition tracking's
+    /// control medium needs).
+    uniform_albedo: Option<Rgb>,
     world_bounds: (Vec3, Vec3),
 }
 
@@ -110,6 +117,16 @@ impl Volume {
             .and_then(|g| g.value_range())
             .map(|[_, hi]| hi.max_element().max(0.0));
         let sigma_t_per_density = material.sigma_t_bound_per_density(color_max);
+        let (sigma_t_min_per_density, uniform_albedo) = if extra.color.is_some() {
+            (0.0, None)
+        } else {
+            let (s, t) = material.coefficients_per_density();
+            let albedo = Rgb::select(t.cmpgt(Rgb::ZERO), s / t, Rgb::ZERO);
+            (
+                t.min_element().max(0.0),
+                (!material.is_emissive()).then_some(albedo),
+            )
+        };
         // World bounds: the eight corners of the majorant box.
         let (lo, hi) = majorant.bounds();
         let mut wlo = Vec3::splat(f32::INFINITY);
@@ -139,6 +156,8 @@ impl Volume {
             secondary_from_world: [x0, x1, x2],
             majorant,
             sigma_t_per_density,
+            sigma_t_min_per_density,
+            uniform_albedo,
             world_bounds: (wlo, whi),
         })
     }
@@ -148,9 +167,13 @@ impl Volume {
     }
 
     /// Rebuilds the majorant grid with cells of `cell` voxels (a cell larger
-    /// than the grid gives one global majorant). For benchmarks.
-    pub fn set_majorant_cell(&mut self, cell: i32) {
-        if let Some(m) = MajorantGrid::build(&self.density, cell.max(1)) {
+    /// than the grid gives one global majorant), without its minorant if
+    /// `minorant` is false. For benchmarks.
+    pub fn set_majorant_cell(&mut self, cell: i32, minorant: bool) {
+        if let Some(mut m) = MajorantGrid::build(&self.density, cell.max(1)) {
+            if !minorant {
+                m.clear_minorant();
+            }
             self.majorant = m;
         }
     }
@@ -212,6 +235,10 @@ impl Volume {
 #[derive(Debug, Clone, Default)]
 pub struct Media {
     volumes: Vec<Volume>,
+    /// The albedo and phase function shared by every volume, when they do
+    /// (and none emits): then the minorant of the majorant grid is a
+    /// homogeneous control medium whose collisions need no lookup.
+    control: Option<(Rgb, PhaseFunction)>,
 }
 
 /// A ray in each volume's index space, with its clipped extent.
@@ -223,7 +250,22 @@ struct IndexRay {
 
 impl Media {
     pub fn new(volumes: Vec<Volume>) -> Self {
-        Self { volumes }
+        let first = volumes
+            .first()
+            .and_then(|v| Some((v.uniform_albedo?, v.phase)));
+        let control = first.filter(|&(a, ph)| {
+            volumes
+                .iter()
+                .all(|v| v.uniform_albedo == Some(a) && v.phase == ph)
+        });
+        Self { volumes, control }
+    }
+
+    /// The albedo every real collision has, when the volumes share one and
+    /// none emits; see [`crate::tracking::collide`].
+    #[inline]
+    pub fn control_albedo(&self) -> Option<Rgb> {
+        self.control.map(|(a, _)| a)
     }
     pub fn volumes(&self) -> &[Volume] {
         &self.volumes
@@ -263,6 +305,9 @@ impl Media {
     /// chosen with probability proportional to its scattering there (a
     /// one-sample estimate of the σs-weighted mixture), using `u`.
     pub fn phase_at(&self, p: Vec3, u: f32) -> PhaseFunction {
+        if let Some((_, phase)) = self.control {
+            return phase;
+        }
         match self.volumes.as_slice() {
             [v] => v.phase(),
             vs => {
@@ -287,9 +332,10 @@ impl Media {
 
     /// Calls `f` for each stretch of the ray `o + t d` (`d` a unit world
     /// direction) within `[t0, t1)` that has a constant majorant of
-    /// sigma_t (per world unit, max over channels), in order of `t`.
+    /// sigma_t (per world unit, max over channels) and minorant (min over
+    /// channels), in order of `t`.
     /// Stretches where no volume is present are skipped; where volumes
-    /// overlap, their majorants add. `f` returns false to stop.
+    /// overlap, their bounds add. `f` returns false to stop.
     #[inline]
     pub fn for_each_segment(
         &self,
@@ -309,6 +355,7 @@ impl Media {
                 for s in v.majorant.walk(r.o, r.d, t0, t1) {
                     let seg = Segment {
                         max_density: s.max_density * v.sigma_t_per_density,
+                        min_density: s.min_density * v.sigma_t_min_per_density,
                         ..s
                     };
                     if !f(seg) {
@@ -326,22 +373,24 @@ impl Media {
                         let id = v.index_from_world.transform_vector3(d);
                         let mut w = v.majorant.walk(io, id, t0, t1);
                         let cur = w.next();
-                        (w, cur, v.sigma_t_per_density)
+                        (w, cur, (v.sigma_t_per_density, v.sigma_t_min_per_density))
                     })
                     .collect();
                 let mut t = t0;
                 loop {
                     let mut next_t = f32::INFINITY;
                     let mut maj = 0.0;
+                    let mut min = 0.0;
                     let mut any = false;
-                    for (_, cur, k) in walks.iter() {
+                    for (_, cur, (k_max, k_min)) in walks.iter() {
                         if let Some(s) = cur {
                             any = true;
                             if s.t0 > t {
                                 next_t = next_t.min(s.t0);
                             } else {
                                 next_t = next_t.min(s.t1);
-                                maj += s.max_density * k;
+                                maj += s.max_density * k_max;
+                                min += s.min_density * k_min;
                             }
                         }
                     }
@@ -354,6 +403,7 @@ impl Media {
                             t0: t,
                             t1: next_t,
                             max_density: maj,
+                            min_density: min,
                         })
                     {
                         return;

@@ -150,6 +150,15 @@ impl Material {
         }
     }
 
+    /// Per unit of the density attribute, without a colour attribute:
+    /// `(sigma_s, sigma_t)` when the coefficients are proportional to the
+    /// density (always, for both kinds), so that the albedo is the same
+    /// wherever the density is > 0.
+    pub fn coefficients_per_density(&self) -> (Rgb, Rgb) {
+        let m = self.coefficients(1.0, None, None, None);
+        (m.sigma_s, m.sigma_t())
+    }
+
     /// The optics at a point, from the grid values there (`density` already
     /// clamped to ≥ 0).
     #[inline]
