@@ -3,7 +3,7 @@
 
 mod common;
 
-use glam::{DVec3, IVec3};
+use glam::{DVec3, IVec3, Vec3};
 use std::path::Path;
 use vdbphoton::generate;
 use vdbphoton::grid::{Grid, GridValue};
@@ -150,6 +150,80 @@ fn single_precision_index_path_agrees() {
         let a = g.sample_index(p.as_vec3());
         let b = g.sample_index_f64(p);
         assert!((a - b).abs() < 2e-5, "at {p}: {a} vs {b}");
+    }
+}
+
+#[test]
+fn batched_lookups_equal_single_ones_and_far_points_read_the_background() {
+    // `sample_index_batch` is `sample_index` bit for bit, over tiles at two
+    // levels, bricks, empty space and points far outside; points beyond
+    // ±2^30 and NaN read the background instead of wrapping around.
+    let grids = [common::hand_built(), generate::cloud(40, 8).unwrap()];
+    let mut rng = common::TestRng(17);
+    for g in &grids {
+        let (lo, hi) = g.stored_bounds().unwrap();
+        let (lo, hi) = (lo.as_vec3() - 20.0, hi.as_vec3() + 20.0);
+        let mut pts: Vec<Vec3> = (0..20_000)
+            .map(|_| {
+                Vec3::new(
+                    rng.range(lo.x as f64, hi.x as f64) as f32,
+                    rng.range(lo.y as f64, hi.y as f64) as f32,
+                    rng.range(lo.z as f64, hi.z as f64) as f32,
+                )
+            })
+            .collect();
+        // Exactly on voxel centres and brick faces too.
+        pts.extend((0..2000).map(|i| Vec3::new((i % 40) as f32, (i / 40 % 7) as f32 * 8.0, -1.0)));
+        let far = [
+            Vec3::new(3e9, 0.0, 0.0),
+            Vec3::new(0.0, -2e9, 5.0),
+            Vec3::new(1.0, 2.0, f32::INFINITY),
+            Vec3::new(f32::NAN, 0.0, 0.0),
+        ];
+        pts.extend(far);
+        let mut out = vec![0.0f32; pts.len()];
+        g.sample_index_batch(&pts, &mut out);
+        for (p, o) in pts.iter().zip(&out) {
+            let v = g.sample_index(*p);
+            assert_eq!(v.to_bits(), o.to_bits(), "at {p}: {v} single, {o} batched");
+        }
+        for p in far {
+            assert_eq!(g.sample_index(p), g.background(), "at {p}");
+        }
+    }
+}
+
+#[test]
+fn block_lookup_ranges_are_exact() {
+    // The range of each 8^3 block with its +x/+y/+z apron (the voxels a
+    // lookup in the block reads) equals the brute-force range of those
+    // 9^3 voxels, across bricks, tiles of two levels and empty space.
+    let grids = [common::hand_built(), generate::cloud(40, 8).unwrap()];
+    for g in &grids {
+        let (lo, hi) = g.stored_bounds().unwrap();
+        let (lo, hi): (IVec3, IVec3) = ((lo >> 3i32) - 1, (hi >> 3i32) + 1);
+        let (lo, hi) = (lo.max(IVec3::splat(-6)), hi.min(IVec3::splat(24)));
+        let mut checked = 0;
+        for bx in lo.x..=hi.x {
+            for by in lo.y..=hi.y {
+                for bz in lo.z..=hi.z {
+                    let o = IVec3::new(bx, by, bz) * 8;
+                    let (mut vmin, mut vmax) = (f32::MAX, f32::MIN);
+                    for x in 0..=8 {
+                        for y in 0..=8 {
+                            for z in 0..=8 {
+                                let v = g.get(o + IVec3::new(x, y, z));
+                                vmin = vmin.min(v);
+                                vmax = vmax.max(v);
+                            }
+                        }
+                    }
+                    assert_eq!(g.block_lookup_range(o), [vmin, vmax], "block at {o}");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 200, "only {checked} blocks");
     }
 }
 

@@ -209,13 +209,29 @@ fn slot_offset(ijk: IVec3) -> usize {
 /// reciprocals, as OpenVDB's `ScaleTranslateMap::applyInverseMap` computes
 /// `(p - t) * (1/s)`: a generic matrix inverse can put a point that lies on
 /// a voxel centre one ulp to the other side of it.
-/// `floor` without a libm call (baseline x86-64 has no SSE4.1 `roundps`):
-/// truncate, then step down where truncation rounded up. Exact for |x| <
-/// 2^31; beyond that the lookup is outside any grid anyway.
+/// `floor(p)` as integers and `p - floor(p)`, without a libm call (baseline
+/// x86-64 has no SSE4.1 `roundps`) and without Rust's saturating float to
+/// int casts (a compare and two conditional moves each): truncate, then
+/// step down where truncation rounded up. Points beyond ±2^30 (outside any
+/// grid) and NaN go to `i32::MIN`, outside every grid.
 #[inline(always)]
-fn fast_floor(p: Vec3) -> Vec3 {
-    let t = p.as_ivec3().as_vec3();
-    t - Vec3::select(t.cmpgt(p), Vec3::ONE, Vec3::ZERO)
+fn floor_split(p: Vec3) -> (IVec3, Vec3) {
+    const LIMIT: f32 = (1u32 << 30) as f32;
+    // A per-component test: `max_element` would skip a NaN.
+    if !p.abs().cmplt(Vec3::splat(LIMIT)).all() {
+        return (IVec3::splat(i32::MIN), Vec3::ZERO);
+    }
+    // SAFETY: every component is finite and below 2^30 in magnitude.
+    let t = unsafe {
+        IVec3::new(
+            p.x.to_int_unchecked::<i32>(),
+            p.y.to_int_unchecked::<i32>(),
+            p.z.to_int_unchecked::<i32>(),
+        )
+    };
+    let tf = t.as_vec3();
+    let i = t - IVec3::select(tf.cmpgt(p), IVec3::ONE, IVec3::ZERO);
+    (i, p - i.as_vec3())
 }
 
 fn invert(m: &DAffine3) -> Option<(DAffine3, bool)> {
@@ -425,13 +441,19 @@ impl<T: GridValue> Grid<T> {
         {
             return EMPTY;
         }
-        // SAFETY-free fast path: indices are in range by the check above and
-        // by construction of `nodes`.
-        let e = self.top[self.top_index(t)];
+        let i = self.top_index(t);
+        debug_assert!(i < self.top.len());
+        // SAFETY: 0 <= t < top_dims by the check above, and `top` has
+        // top_dims.x * top_dims.y * top_dims.z entries (`from_parts`).
+        let e = unsafe { *self.top.get_unchecked(i) };
         if e & CONST_BIT != 0 {
             return e;
         }
-        self.nodes[e as usize * NODE_SLOTS + slot_offset(ijk)]
+        let j = e as usize * NODE_SLOTS + slot_offset(ijk);
+        debug_assert!(j < self.nodes.len());
+        // SAFETY: a top entry without CONST_BIT is the index of a node of
+        // NODE_SLOTS slots in `nodes` (`node_slot_mut`); slot_offset < 4096.
+        unsafe { *self.nodes.get_unchecked(j) }
     }
 
     /// The value of voxel `ijk` (background outside what is stored).
@@ -478,7 +500,11 @@ impl<T: GridValue> Grid<T> {
                 return [self.constants[(s & !CONST_BIT) as usize]; 8];
             }
             let b = s as usize * BRICK_VOXELS + voxel_offset(i0);
-            let v = &self.values[b..b + 74];
+            debug_assert!(b + 74 <= self.values.len());
+            // SAFETY: `s` is a brick index (no CONST_BIT), so its 512 values
+            // are in `values`; with no coordinate at 7 in the brick, offset
+            // + 73 is still inside it.
+            let v = unsafe { self.values.get_unchecked(b..b + 74) };
             return [v[0], v[1], v[8], v[9], v[64], v[65], v[72], v[73]];
         }
         // The corners span two to eight blocks: look each block up once.
@@ -503,13 +529,59 @@ impl<T: GridValue> Grid<T> {
     /// renderer's path, which transforms rays into index space once).
     #[inline]
     pub fn sample_index(&self, p: Vec3) -> T {
-        let f = fast_floor(p);
-        let w = p - f;
-        let d = self.fetch8(f.as_ivec3());
+        let (i0, w) = floor_split(p);
+        let d = self.fetch8(i0);
         let l = T::lerp_f32;
         let y0 = l(l(d[0], d[1], w.z), l(d[2], d[3], w.z), w.y);
         let y1 = l(l(d[4], d[5], w.z), l(d[6], d[7], w.z), w.y);
         l(y0, y1, w.x)
+    }
+
+    /// Trilinear samples at many index-space points: `out[i]` is
+    /// `sample_index(points[i])`, bit for bit, but faster when the points
+    /// are scattered (a ray march's quadrature points, a batch of photons).
+    /// A few points ahead of the one it interpolates, it finds the brick of
+    /// the next point and prefetches the cache lines its corners lie on, so
+    /// that the memory latency of consecutive lookups overlaps instead of
+    /// adding up. Panics if the slices' lengths differ.
+    pub fn sample_index_batch(&self, points: &[Vec3], out: &mut [T]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        const AHEAD: usize = 8;
+        for p in points.iter().take(AHEAD) {
+            self.prefetch_corners(*p);
+        }
+        for (i, (p, o)) in points.iter().zip(out.iter_mut()).enumerate() {
+            if let Some(q) = points.get(i + AHEAD) {
+                self.prefetch_corners(*q);
+            }
+            *o = self.sample_index(*p);
+        }
+    }
+
+    /// Prefetches the cache lines that hold the corners of the lookup at
+    /// `p` within its own brick (the x and x + 1 planes); no-op for tiles
+    /// and on targets without a prefetch instruction.
+    #[inline(always)]
+    fn prefetch_corners(&self, p: Vec3) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let (i0, _) = floor_split(p);
+            let s = self.slot(i0);
+            if s & CONST_BIT == 0 {
+                let b = s as usize * BRICK_VOXELS + voxel_offset(i0);
+                let base = self.values.as_ptr();
+                for d in [0usize, 9, 64, 73] {
+                    // wrapping_add: an address past the end is never read
+                    // (prefetches do not fault).
+                    let ptr = base.wrapping_add(b + d) as *const i8;
+                    // SAFETY: prefetching has no effect on memory safety.
+                    unsafe { _mm_prefetch(ptr, _MM_HINT_T0) };
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = p;
     }
 
     /// Trilinear sample at a point in index space, in double precision,
