@@ -30,7 +30,7 @@ impl Rng {
     }
 }
 
-fn lookups_per_second(g: &Grid<f32>) -> (f64, f64, usize) {
+fn lookups_per_second(g: &Grid<f32>) -> (f64, usize) {
     let (lo, hi) = g.active_bounds().unwrap();
     let size = (hi - lo + 1).as_vec3();
     let mut rng = Rng(0x2545F4914F6CDD1D);
@@ -52,14 +52,6 @@ fn lookups_per_second(g: &Grid<f32>) -> (f64, f64, usize) {
         best = best.max(n as f64 / t0.elapsed().as_secs_f64());
     }
     std::hint::black_box(sink);
-    let mut out = vec![0.0f32; n];
-    let mut best_batch = 0.0f64;
-    for _ in 0..3 {
-        let t0 = Instant::now();
-        g.sample_index_batch(&pts, &mut out);
-        best_batch = best_batch.max(n as f64 / t0.elapsed().as_secs_f64());
-    }
-    std::hint::black_box(&out);
     // Context: the same number of plain random reads from a flat array as
     // large as the grid's values (no index, no interpolation).
     let len = (g.brick_count() * 512).max(1);
@@ -94,7 +86,7 @@ fn lookups_per_second(g: &Grid<f32>) -> (f64, f64, usize) {
         gather / 1e6,
         coherent / 1e6
     );
-    (best, best_batch, n)
+    (best, n)
 }
 
 fn bench_file(path: &Path, grid: &str) {
@@ -135,11 +127,10 @@ fn bench_file(path: &Path, grid: &str) {
         mem / 1048576.0,
         mem / mem_ovdb as f64
     );
-    let (rate, batch, n) = lookups_per_second(&g);
+    let (rate, n) = lookups_per_second(&g);
     println!(
-        "lookups: {:.1} M trilinear samples/s on one core one at a time, {:.1} M/s batched ({n} random points in the active region; target >= 50)",
-        rate / 1e6,
-        batch / 1e6
+        "lookups: {:.1} M trilinear samples/s on one core ({n} random points in the active region; target >= 50)",
+        rate / 1e6
     );
 }
 

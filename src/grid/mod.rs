@@ -495,17 +495,32 @@ impl<T: GridValue> Grid<T> {
         let lo = i0 & 7;
         let s = self.slot(i0);
         if lo.x != 7 && lo.y != 7 && lo.z != 7 {
-            // All eight in one 8^3 block (343 of 512 cases).
-            if s & CONST_BIT != 0 {
-                return [self.constants[(s & !CONST_BIT) as usize]; 8];
-            }
-            let b = s as usize * BRICK_VOXELS + voxel_offset(i0);
-            debug_assert!(b + 74 <= self.values.len());
-            // SAFETY: `s` is a brick index (no CONST_BIT), so its 512 values
-            // are in `values`; with no coordinate at 7 in the brick, offset
-            // + 73 is still inside it.
-            let v = unsafe { self.values.get_unchecked(b..b + 74) };
-            return [v[0], v[1], v[8], v[9], v[64], v[65], v[72], v[73]];
+            // All eight in one 8^3 block (343 of 512 cases). A brick or a
+            // constant, without a branch on which: for scattered points it
+            // would mispredict about half the time, and only after the
+            // index walk's loads, throwing away the lookups the processor
+            // had started meanwhile. Instead a conditional move picks the
+            // base address, and the offsets collapse to 0 for a constant.
+            let is_const = s & CONST_BIT != 0;
+            let k = (s & !CONST_BIT) as usize;
+            let base = std::hint::select_unpredictable(
+                is_const,
+                self.constants.as_ptr().wrapping_add(k),
+                self.values
+                    .as_ptr()
+                    .wrapping_add(k * BRICK_VOXELS + voxel_offset(i0)),
+            );
+            let m = std::hint::select_unpredictable(is_const, 0usize, usize::MAX);
+            debug_assert!(if is_const {
+                k < self.constants.len()
+            } else {
+                k * BRICK_VOXELS + voxel_offset(i0) + 74 <= self.values.len()
+            });
+            // SAFETY: for a constant, `k` indexes `constants` and every
+            // offset is masked to 0; for a brick, its 512 values are in
+            // `values`, and with no coordinate at 7 in the brick the offset
+            // plus 73 is still inside it.
+            return [0usize, 1, 8, 9, 64, 65, 72, 73].map(|o| unsafe { *base.add(o & m) });
         }
         // The corners span two to eight blocks: look each block up once.
         let step = IVec3::new((lo.x == 7) as i32, (lo.y == 7) as i32, (lo.z == 7) as i32) * 8;
@@ -527,7 +542,7 @@ impl<T: GridValue> Grid<T> {
 
     /// Trilinear sample at a point in index space (single precision: the
     /// renderer's path, which transforms rays into index space once).
-    #[inline]
+    #[inline(always)]
     pub fn sample_index(&self, p: Vec3) -> T {
         let (i0, w) = floor_split(p);
         let d = self.fetch8(i0);
@@ -535,53 +550,6 @@ impl<T: GridValue> Grid<T> {
         let y0 = l(l(d[0], d[1], w.z), l(d[2], d[3], w.z), w.y);
         let y1 = l(l(d[4], d[5], w.z), l(d[6], d[7], w.z), w.y);
         l(y0, y1, w.x)
-    }
-
-    /// Trilinear samples at many index-space points: `out[i]` is
-    /// `sample_index(points[i])`, bit for bit, but faster when the points
-    /// are scattered (a ray march's quadrature points, a batch of photons).
-    /// A few points ahead of the one it interpolates, it finds the brick of
-    /// the next point and prefetches the cache lines its corners lie on, so
-    /// that the memory latency of consecutive lookups overlaps instead of
-    /// adding up. Panics if the slices' lengths differ.
-    pub fn sample_index_batch(&self, points: &[Vec3], out: &mut [T]) {
-        assert_eq!(points.len(), out.len(), "one output per point");
-        const AHEAD: usize = 8;
-        for p in points.iter().take(AHEAD) {
-            self.prefetch_corners(*p);
-        }
-        for (i, (p, o)) in points.iter().zip(out.iter_mut()).enumerate() {
-            if let Some(q) = points.get(i + AHEAD) {
-                self.prefetch_corners(*q);
-            }
-            *o = self.sample_index(*p);
-        }
-    }
-
-    /// Prefetches the cache lines that hold the corners of the lookup at
-    /// `p` within its own brick (the x and x + 1 planes); no-op for tiles
-    /// and on targets without a prefetch instruction.
-    #[inline(always)]
-    fn prefetch_corners(&self, p: Vec3) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let (i0, _) = floor_split(p);
-            let s = self.slot(i0);
-            if s & CONST_BIT == 0 {
-                let b = s as usize * BRICK_VOXELS + voxel_offset(i0);
-                let base = self.values.as_ptr();
-                for d in [0usize, 9, 64, 73] {
-                    // wrapping_add: an address past the end is never read
-                    // (prefetches do not fault).
-                    let ptr = base.wrapping_add(b + d) as *const i8;
-                    // SAFETY: prefetching has no effect on memory safety.
-                    unsafe { _mm_prefetch(ptr, _MM_HINT_T0) };
-                }
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = p;
     }
 
     /// Trilinear sample at a point in index space, in double precision,
