@@ -3,6 +3,7 @@
 //! See ARCHITECTURE.md for how the crate is cut: `vdb` (the OpenVDB bridge)
 //! feeds `grid` (our sparse grid); `generate` makes procedural volumes.
 
+pub mod atomic;
 pub mod camera;
 pub mod error;
 pub mod generate;

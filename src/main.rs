@@ -511,13 +511,11 @@ fn export_vol(file: &std::path::Path, out: &std::path::Path, grid: &str) -> Resu
             }
         }
     }
-    let tmp = vdb::temp_path_for(out);
-    std::fs::write(&tmp, &bytes)
-        .and_then(|_| std::fs::rename(&tmp, out))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            Error::io(out, e)
-        })?;
+    vdbphoton::atomic::replace_with(
+        out,
+        |tmp| std::fs::write(tmp, &bytes).map_err(|e| Error::io(out, e)),
+        |e| Error::io(out, e),
+    )?;
     eprintln!(
         "wrote {} ({} x {} x {} voxels, world box {:?} .. {:?})",
         out.display(),

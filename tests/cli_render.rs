@@ -179,3 +179,45 @@ fn environment_map_from_an_exr_file() {
     assert_eq!(code, 1);
     assert!(err.contains("sky.exr"), "{err}");
 }
+
+#[test]
+fn export_vol_writes_a_whole_file_or_nothing() {
+    // `export-vol` (for Mitsuba comparisons): the header and size of the
+    // dense file, the temporary name gone after success, and nothing left
+    // behind when the output cannot be written.
+    let dir = common::tempdir();
+    let vol = dir.path().join("c.vol");
+    let out = Command::new(BIN)
+        .args(["export-vol", &format!("{SCENES}/cloud.vdb")])
+        .arg(&vol)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(&vol).unwrap();
+    assert_eq!(&bytes[..4], b"VOL\x03");
+    let int = |i: usize| i32::from_le_bytes(bytes[4 + 4 * i..8 + 4 * i].try_into().unwrap());
+    assert_eq!((int(0), int(4)), (1, 1), "float32, one channel");
+    let n = (int(1) * int(2) * int(3)) as usize;
+    assert!(n > 1000);
+    assert_eq!(bytes.len(), 48 + 4 * n);
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["c.vol"]);
+
+    let missing = dir.path().join("no/such/dir/c.vol");
+    let out = Command::new(BIN)
+        .args(["export-vol", &format!("{SCENES}/cloud.vdb")])
+        .arg(&missing)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no/such/dir/c.vol"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}

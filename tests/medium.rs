@@ -3,7 +3,7 @@
 //! Planck's law).
 
 use vdbphoton::medium::blackbody::{blackbody_rgb_cycles, blackbody_rgb_planck};
-use vdbphoton::medium::Material;
+use vdbphoton::medium::{Material, Principled};
 use vdbphoton::scene::MaterialDesc;
 use vdbphoton::Rgb;
 
@@ -23,12 +23,12 @@ fn principled_defaults_and_absorption_colour() {
     // Density 5, colour (0.8, 0.5, 0.2), absorption colour 0.25: σa =
     // D (1 − C)(1 − √A) = 5 (0.2, 0.5, 0.8) · 0.5.
     let m = principled(|d| {
-        if let MaterialDesc::Principled {
+        if let MaterialDesc::Principled(Principled {
             density,
             color,
             absorption_color,
             ..
-        } = d
+        }) = d
         {
             *density = 5.0;
             *color = Rgb::new(0.8, 0.5, 0.2);
@@ -40,9 +40,9 @@ fn principled_defaults_and_absorption_colour() {
     assert!((p.sigma_a - Rgb::new(0.5, 1.25, 2.0)).abs().max_element() < 1e-6);
     // A white absorption colour absorbs nothing; negative density is 0.
     let m = principled(|d| {
-        if let MaterialDesc::Principled {
+        if let MaterialDesc::Principled(Principled {
             absorption_color, ..
-        } = d
+        }) = d
         {
             *absorption_color = Rgb::ONE;
         }
@@ -57,11 +57,11 @@ fn principled_defaults_and_absorption_colour() {
 fn principled_blackbody_emission() {
     // Quick Smoke: Blackbody Intensity 1, Temperature 1000 K × temperature.
     let m = principled(|d| {
-        if let MaterialDesc::Principled {
+        if let MaterialDesc::Principled(Principled {
             density,
             blackbody_intensity,
             ..
-        } = d
+        }) = d
         {
             *density = 5.0;
             *blackbody_intensity = 1.0;
@@ -92,11 +92,11 @@ fn principled_blackbody_emission() {
     );
     // Constant emission only where there is density.
     let e = principled(|d| {
-        if let MaterialDesc::Principled {
+        if let MaterialDesc::Principled(Principled {
             emission_strength,
             emission_color,
             ..
-        } = d
+        }) = d
         {
             *emission_strength = 2.0;
             *emission_color = Rgb::new(1.0, 0.5, 0.25);

@@ -3,7 +3,7 @@ use std::path::{Path, PathBuf};
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use vdbphoton::scene::{
     CameraDesc, EnvironmentDesc, Integrator, LightDesc, MaterialDesc, PathSeg, PhaseDesc,
-    RenderDesc, SceneDesc, SceneError, SceneFormat,
+    Principled, RenderDesc, SceneDesc, SceneError, SceneFormat,
 };
 
 const VOL: &str = "[[volume]]\nfile = \"a.vdb\"\n";
@@ -123,7 +123,7 @@ fn defaults_when_keys_are_absent() {
     assert_eq!(v.transform, DAffine3::IDENTITY);
     assert_eq!(
         v.material,
-        MaterialDesc::Principled {
+        MaterialDesc::Principled(Principled {
             density: 1.0,
             color: Vec3::splat(0.5),
             absorption_color: Vec3::ZERO,
@@ -133,7 +133,7 @@ fn defaults_when_keys_are_absent() {
             blackbody_intensity: 0.0,
             blackbody_tint: Vec3::ONE,
             temperature: 1000.0,
-        }
+        })
     );
     // Light defaults: sun angle 0; spot cone 45°, blend 0.15 (Blender's).
     let scene = ok(&format!(
@@ -189,7 +189,7 @@ fn principled_material_with_all_keys() {
     assert_eq!(v.color_grid.as_deref(), Some("Cd"));
     assert_eq!(
         v.material,
-        MaterialDesc::Principled {
+        MaterialDesc::Principled(Principled {
             density: 2.5,
             color: Vec3::new(0.8, 0.7, 0.6),
             absorption_color: Vec3::splat(0.25),
@@ -199,7 +199,7 @@ fn principled_material_with_all_keys() {
             blackbody_intensity: 0.75,
             blackbody_tint: Vec3::new(1.0, 0.9, 0.8),
             temperature: 1500.0,
-        }
+        })
     );
 }
 

@@ -21,7 +21,7 @@ use crate::phase::PhaseFunction;
 use crate::Rgb;
 use glam::{Affine3A, Vec3};
 pub use majorant::{MajorantGrid, Segment};
-pub use principled::Material;
+pub use principled::{Material, Principled};
 
 /// Voxels per majorant cell edge. One brick: tight bounds around the
 /// features of smoke, at 1/512 of the voxel count in cells.

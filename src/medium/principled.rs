@@ -31,19 +31,47 @@ use crate::Rgb;
 /// σ_SB · 10⁻⁶ / π, Cycles' blackbody intensity scale.
 const BLACKBODY_SCALE: f32 = 5.670_373e-8 * 1e-6 / std::f32::consts::PI;
 
+/// The inputs of Blender's Principled Volume node, with its names, units
+/// and defaults (the scene description uses this type too).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Principled {
+    pub density: f32,
+    pub color: Rgb,
+    pub absorption_color: Rgb,
+    /// Henyey–Greenstein g.
+    pub anisotropy: f32,
+    pub emission_strength: f32,
+    pub emission_color: Rgb,
+    pub blackbody_intensity: f32,
+    pub blackbody_tint: Rgb,
+    /// Kelvin.
+    pub temperature: f32,
+}
+
+impl Principled {
+    /// Blender's defaults.
+    pub const DEFAULT: Principled = Principled {
+        density: 1.0,
+        color: Rgb::splat(0.5),
+        absorption_color: Rgb::ZERO,
+        anisotropy: 0.0,
+        emission_strength: 0.0,
+        emission_color: Rgb::ONE,
+        blackbody_intensity: 0.0,
+        blackbody_tint: Rgb::ONE,
+        temperature: 1000.0,
+    };
+}
+
+impl Default for Principled {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub enum Material {
-    Principled {
-        density: f32,
-        color: Rgb,
-        absorption_color: Rgb,
-        anisotropy: f32,
-        emission_strength: f32,
-        emission_color: Rgb,
-        blackbody_intensity: f32,
-        blackbody_tint: Rgb,
-        temperature: f32,
-    },
+    Principled(Principled),
     /// Coefficients per unit of the density attribute (per world unit).
     Raw {
         sigma_a: Rgb,
@@ -56,27 +84,7 @@ pub enum Material {
 impl Material {
     pub fn from_desc(d: &MaterialDesc) -> Self {
         match d {
-            MaterialDesc::Principled {
-                density,
-                color,
-                absorption_color,
-                anisotropy,
-                emission_strength,
-                emission_color,
-                blackbody_intensity,
-                blackbody_tint,
-                temperature,
-            } => Material::Principled {
-                density: *density,
-                color: *color,
-                absorption_color: *absorption_color,
-                anisotropy: *anisotropy,
-                emission_strength: *emission_strength,
-                emission_color: *emission_color,
-                blackbody_intensity: *blackbody_intensity,
-                blackbody_tint: *blackbody_tint,
-                temperature: *temperature,
-            },
+            MaterialDesc::Principled(p) => Material::Principled(*p),
             MaterialDesc::Raw {
                 sigma_a,
                 sigma_s,
@@ -101,19 +109,19 @@ impl Material {
 
     pub fn phase(&self) -> PhaseFunction {
         match self {
-            Material::Principled { anisotropy, .. } => PhaseFunction::hg(*anisotropy),
+            Material::Principled(Principled { anisotropy, .. }) => PhaseFunction::hg(*anisotropy),
             Material::Raw { phase, .. } => *phase,
         }
     }
 
     pub fn is_emissive(&self) -> bool {
         match self {
-            Material::Principled {
+            Material::Principled(Principled {
                 emission_strength,
                 emission_color,
                 blackbody_intensity,
                 ..
-            } => {
+            }) => {
                 (*emission_strength > 0.0 && emission_color.max_element() > 0.0)
                     || *blackbody_intensity > 0.0
             }
@@ -125,12 +133,12 @@ impl Material {
     /// given the largest colour-attribute component (if there is one).
     pub fn sigma_t_bound_per_density(&self, color_max: Option<f32>) -> f32 {
         match self {
-            Material::Principled {
+            Material::Principled(Principled {
                 density,
                 color,
                 absorption_color,
                 ..
-            } => {
+            }) => {
                 let d = density.max(0.0);
                 match color_max {
                     // σt = D(C c + max(1 − C c, 0)·a) with a ≤ 1: at most
@@ -180,7 +188,7 @@ impl Material {
                 sigma_s: *sigma_s * density,
                 emission: *emission * density,
             },
-            Material::Principled {
+            Material::Principled(Principled {
                 density: d0,
                 color,
                 absorption_color,
@@ -190,7 +198,7 @@ impl Material {
                 blackbody_tint,
                 temperature: t0,
                 ..
-            } => {
+            }) => {
                 let d = (d0 * density).max(0.0);
                 let c = match color_attr {
                     Some(a) => *color * a,

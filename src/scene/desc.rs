@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use serde::Deserialize;
 
+pub use crate::medium::Principled;
 use crate::Rgb;
 
 /// A whole scene: what to render, from where, lit by what.
@@ -173,19 +174,7 @@ pub struct VolumeDesc {
 #[derive(Debug, Clone, PartialEq)]
 pub enum MaterialDesc {
     /// Blender's Principled Volume; same names, same defaults.
-    Principled {
-        density: f32,
-        color: Rgb,
-        absorption_color: Rgb,
-        /// Henyey–Greenstein g.
-        anisotropy: f32,
-        emission_strength: f32,
-        emission_color: Rgb,
-        blackbody_intensity: f32,
-        blackbody_tint: Rgb,
-        /// Kelvin.
-        temperature: f32,
-    },
+    Principled(Principled),
     /// Raw coefficients per unit grid density, in world units⁻¹.
     Raw {
         sigma_a: Rgb,
@@ -198,17 +187,7 @@ pub enum MaterialDesc {
 
 impl MaterialDesc {
     /// Blender's Principled Volume defaults.
-    pub const PRINCIPLED_DEFAULT: MaterialDesc = MaterialDesc::Principled {
-        density: 1.0,
-        color: Vec3::splat(0.5),
-        absorption_color: Vec3::ZERO,
-        anisotropy: 0.0,
-        emission_strength: 0.0,
-        emission_color: Vec3::ONE,
-        blackbody_intensity: 0.0,
-        blackbody_tint: Vec3::ONE,
-        temperature: 1000.0,
-    };
+    pub const PRINCIPLED_DEFAULT: MaterialDesc = MaterialDesc::Principled(Principled::DEFAULT);
 }
 
 impl Default for MaterialDesc {

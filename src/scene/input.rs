@@ -14,7 +14,7 @@ use serde::Deserialize;
 
 use super::desc::{
     affine_from_rows, compose_trs, CameraDesc, EnvironmentDesc, Integrator, LightDesc,
-    MaterialDesc, PhaseDesc, RenderDesc, SceneDesc, VolumeDesc,
+    MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
 };
 use super::error::{kp, PathSeg, ValidationError};
 use crate::Rgb;
@@ -505,33 +505,20 @@ impl MaterialIn {
                 },
             }),
             _ => {
-                let MaterialDesc::Principled {
-                    density,
-                    color,
-                    absorption_color,
-                    anisotropy,
-                    emission_strength,
-                    emission_color,
-                    blackbody_intensity,
-                    blackbody_tint,
-                    temperature,
-                } = MaterialDesc::PRINCIPLED_DEFAULT
-                else {
-                    unreachable!("PRINCIPLED_DEFAULT is Principled")
-                };
+                let d = Principled::DEFAULT;
                 let f = |v: Option<f64>, d: f32| v.map_or(d, |v| v as f32);
                 let c = |v: Option<Splat3>, d: Rgb| v.map_or(d, rgb);
-                Ok(MaterialDesc::Principled {
-                    density: f(self.density, density),
-                    color: c(self.color, color),
-                    absorption_color: c(self.absorption_color, absorption_color),
-                    anisotropy: f(self.anisotropy, anisotropy),
-                    emission_strength: f(self.emission_strength, emission_strength),
-                    emission_color: c(self.emission_color, emission_color),
-                    blackbody_intensity: f(self.blackbody_intensity, blackbody_intensity),
-                    blackbody_tint: c(self.blackbody_tint, blackbody_tint),
-                    temperature: f(self.temperature, temperature),
-                })
+                Ok(MaterialDesc::Principled(Principled {
+                    density: f(self.density, d.density),
+                    color: c(self.color, d.color),
+                    absorption_color: c(self.absorption_color, d.absorption_color),
+                    anisotropy: f(self.anisotropy, d.anisotropy),
+                    emission_strength: f(self.emission_strength, d.emission_strength),
+                    emission_color: c(self.emission_color, d.emission_color),
+                    blackbody_intensity: f(self.blackbody_intensity, d.blackbody_intensity),
+                    blackbody_tint: c(self.blackbody_tint, d.blackbody_tint),
+                    temperature: f(self.temperature, d.temperature),
+                }))
             }
         }
     }

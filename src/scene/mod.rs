@@ -22,7 +22,7 @@ use std::path::Path;
 
 pub use desc::{
     affine_from_rows, compose_trs, euler_xyz_deg, CameraDesc, EnvironmentDesc, Integrator,
-    LightDesc, MaterialDesc, PhaseDesc, RenderDesc, SceneDesc, VolumeDesc,
+    LightDesc, MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
 

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::desc::{EnvironmentDesc, LightDesc, MaterialDesc, PhaseDesc, SceneDesc};
+use super::desc::{EnvironmentDesc, LightDesc, MaterialDesc, PhaseDesc, Principled, SceneDesc};
 use super::error::{kp, PathSeg, ValidationError};
 
 type Check = Result<(), ValidationError>;
@@ -260,7 +260,7 @@ fn validate_light(path: &[PathSeg], light: &LightDesc) -> Check {
 fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
     let k = |key| with(path, key);
     match material {
-        MaterialDesc::Principled {
+        MaterialDesc::Principled(Principled {
             density,
             color,
             absorption_color,
@@ -270,7 +270,7 @@ fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
             blackbody_intensity,
             blackbody_tint,
             temperature,
-        } => {
+        }) => {
             non_negative(&k("density"), *density)?;
             non_negative3(&k("color"), *color)?;
             non_negative3(&k("absorption_color"), *absorption_color)?;

@@ -310,15 +310,6 @@ fn data_from_grid<T: GridValue>(g: &Grid<T>) -> bridge::GridData {
     d
 }
 
-/// The temporary name a file is written under before it is renamed.
-pub fn temp_path_for(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
-}
-
 /// Writes grids to a `.vdb` file: to a temporary name first, then renamed,
 /// so an interrupted or failed write never leaves a partial file.
 pub fn write_vdb(path: impl AsRef<Path>, grids: &[AnyGrid]) -> Result<()> {
@@ -338,15 +329,15 @@ pub fn write_vdb(path: impl AsRef<Path>, grids: &[AnyGrid]) -> Result<()> {
             ));
         }
     }
-    let tmp = temp_path_for(path);
     let creator = format!("vdbphoton {}", env!("CARGO_PKG_VERSION"));
-    let result = bridge::write_grids(path_str(&tmp)?, &data, &creator)
-        .map_err(|e| Error::file(path, format!("cannot write: {}", e.what())))
-        .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e)));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    crate::atomic::replace_with(
+        path,
+        |tmp| {
+            bridge::write_grids(path_str(tmp)?, &data, &creator)
+                .map_err(|e| Error::file(path, format!("cannot write: {}", e.what())))
+        },
+        |e| Error::io(path, e),
+    )
 }
 
 /// OpenVDB's own version string (ABI version).
