@@ -67,6 +67,29 @@ fn lookups_per_second(g: &Grid<f32>) -> (f64, usize) {
     }
     std::hint::black_box(s);
     let gather = n as f64 / t0.elapsed().as_secs_f64();
+    // The memory part of a trilinear lookup alone: the eight values of a
+    // random cell inside a random brick of the same array (two cache
+    // lines, as in the grid), no index walk, no interpolation. What the
+    // memory system allows at best.
+    let cells: Vec<u32> = idx
+        .iter()
+        .map(|&i| {
+            let b = i / 512 * 512;
+            let v = (i % 512) as usize;
+            // A cell whose eight corners are in the brick (x, y, z < 7).
+            let (x, y, z) = ((v >> 6) % 7, ((v >> 3) & 7) % 7, (v & 7) % 7);
+            b + ((x << 6) | (y << 3) | z) as u32
+        })
+        .collect();
+    let t0 = Instant::now();
+    let mut s = 0.0f32;
+    for &c in &cells {
+        let c = c as usize;
+        s += flat[c] + flat[c + 1] + flat[c + 8] + flat[c + 9];
+        s += flat[c + 64] + flat[c + 65] + flat[c + 72] + flat[c + 73];
+    }
+    std::hint::black_box(s);
+    let gather8 = n as f64 / t0.elapsed().as_secs_f64();
     // And coherent access: the same points sorted along x (like a ray march).
     let mut sorted = pts.clone();
     sorted.sort_by(|a, b| {
@@ -82,8 +105,9 @@ fn lookups_per_second(g: &Grid<f32>) -> (f64, usize) {
     let coherent = n as f64 / t0.elapsed().as_secs_f64();
 
     println!(
-        "         (context: {:.1} M/s plain random reads from a flat array of the same size; {:.1} M/s trilinear samples at the same points sorted)",
+        "         (context: {:.1} M/s plain random reads from a flat array of the same size; {:.1} M/s random gathers of a cell's eight values from it; {:.1} M/s trilinear samples at the same points sorted)",
         gather / 1e6,
+        gather8 / 1e6,
         coherent / 1e6
     );
     (best, n)
