@@ -140,6 +140,21 @@ fn bad_scenes_fail_cleanly_without_output() {
     ]);
     assert_eq!(code, 1, "{err}");
     assert!(no_files_in(&out_dir));
+    // An image too large to hold in memory is refused before anything is
+    // allocated (65536 x 65536 would also overflow 32-bit pixel counts).
+    let (code, err) = render(&[
+        &format!("{SCENES}/cloud.toml"),
+        "--width",
+        "65536",
+        "--height",
+        "65536",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("4294967296 pixels"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(no_files_in(&out_dir));
 }
 
 #[test]

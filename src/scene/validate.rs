@@ -147,6 +147,17 @@ impl SceneDesc {
                 return err(p(key), format!("must be in [1, 65536], got {v}"));
             }
         }
+        let pixels = r.width as u64 * r.height as u64;
+        if pixels > MAX_PIXELS {
+            return err(
+                p("width"),
+                format!(
+                    "{} x {} is {pixels} pixels, more than the {MAX_PIXELS} a render may have \
+                     (the film and its layers take about 130 bytes per pixel)",
+                    r.width, r.height
+                ),
+            );
+        }
         if r.spp < 1 {
             return err(p("spp"), format!("must be >= 1, got {}", r.spp));
         }
@@ -256,6 +267,11 @@ fn validate_light(path: &[PathSeg], light: &LightDesc) -> Check {
         }
     }
 }
+
+/// The most pixels a render may have: 2^27 (e.g. 16384 x 8192), about 17
+/// GB of film. Larger images would fail to allocate, and an allocation
+/// failure aborts the process instead of reporting an error.
+pub const MAX_PIXELS: u64 = 1 << 27;
 
 fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
     let k = |key| with(path, key);
