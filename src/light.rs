@@ -2,14 +2,18 @@
 //! the environment (constant or an equirectangular HDR map, importance
 //! sampled).
 //!
-//! Conventions, as in Blender/Cycles (checked in `shared/REFERENCE.md`):
+//! Conventions, as in Blender/Cycles (checked against Cycles 5.0.1 with
+//! `scripts/cycles_render.py`; figures in `scripts/README.md`):
 //! - a sun's `irradiance` E is W/m² on a surface facing it. With angular
 //!   diameter θ > 0 it is a uniform disk of radiance L = E / (π sin²(θ/2)),
 //!   which gives exactly E on a surface facing it (∫ L cos dω over the cone);
 //! - point and spot `intensity` is W/sr (radiant intensity on the axis);
+//!   Blender's light Power P in W is P/(4π) W/sr, for spots too (the power
+//!   is not concentrated into the cone);
 //! - a spot's cone is its full angle; `blend` softens the edge with
 //!   smoothstep over the outer `blend` fraction of (1 − cos(half angle)), as
 //!   Cycles' `spot_attenuation`;
+//! - a sun is not visible to camera rays (Cycles' default for new lights);
 //! - the environment map is equirectangular, Z up, with Blender's mapping
 //!   u = atan2(y, −x)/(2π) + ½, v = atan2(z, hypot(x, y))/π + ½, rotated
 //!   about +Z by `rotate_z`.
