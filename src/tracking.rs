@@ -55,7 +55,7 @@ fn bump(c: &'static std::thread::LocalKey<Cell<u64>>) {
 
 /// Records a real collision.
 #[inline]
-pub fn count_real_collision() {
+fn count_real_collision() {
     bump(&REAL);
 }
 
@@ -156,21 +156,16 @@ fn avg(c: Rgb) -> f32 {
 /// coefficients. Absorption is carried in the weight (σs instead of σt in
 /// the numerator) rather than ending the path.
 ///
-/// With a control medium (`control_albedo`: the media's albedo, the same
-/// everywhere) the real part splits into the control's σc and the
+/// With a control medium (the media's albedo the same everywhere, and no
+/// emission: [`Media::control_albedo`]) the real part splits into the control's σc and the
 /// residual σt − σc (decomposition tracking, Kutz et al. 2017 §4). The
 /// control part has probability σc/σ̄ and weight σs/σt = the albedo: it
 /// needs no lookup. Only the rest, a fraction 1 − σc/σ̄, reads the grids.
 #[inline]
-pub fn collide(
-    c: &Collision,
-    control_albedo: Option<Rgb>,
-    beta: Rgb,
-    rng: &mut Rng,
-) -> Option<Step> {
+pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
     let u = rng.next_f32();
     let mut p_c = 0.0;
-    if let Some(albedo) = control_albedo {
+    if let Some(albedo) = c.media.control_albedo() {
         p_c = c.sigma_c / c.sigma_maj;
         if u < p_c {
             count_real_collision();

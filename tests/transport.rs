@@ -92,6 +92,14 @@ fn smooth_grid() -> Grid<f32> {
     Grid::from_parts(p).unwrap()
 }
 
+/// [`smooth_grid`] as a medium of material `m`, with the minorants of its
+/// majorant grid or with them cleared (no control medium).
+fn smooth_media(m: Material, minorant: bool) -> Media {
+    let mut media = media_of(smooth_grid(), m);
+    media.volumes_mut()[0].set_majorant_cell(8, minorant);
+    media
+}
+
 #[test]
 fn slab_transmittance_ratio_and_delta_tracking() {
     let sigma_t = Rgb::new(0.5, 1.0, 1.5);
@@ -578,17 +586,11 @@ fn residual_ratio_tracking_matches_quadrature_in_a_heterogeneous_cloud() {
     // ratio tracking (minorant cleared), along rays through a smooth
     // heterogeneous medium with chromatic extinction.
     let sigma = Rgb::new(0.5, 1.0, 1.5);
-    let mk = |minorant: bool| {
-        let mut v = Volume::new(
-            "smooth",
-            smooth_grid(),
-            ExtraGrids::default(),
+    let mk = |minorant| {
+        smooth_media(
             raw(sigma * 0.2, sigma * 0.8, PhaseFunction::Isotropic),
-            DAffine3::IDENTITY,
+            minorant,
         )
-        .unwrap();
-        v.set_majorant_cell(8, minorant);
-        Media::new(vec![v])
     };
     let (with, without) = (mk(true), mk(false));
     let (lo, hi) = with.bounds().unwrap();
@@ -635,18 +637,8 @@ fn chromatic_medium_equals_its_grey_channels() {
     // tracking) and without it.
     let sigma_s = Rgb::new(1.0, 2.5, 4.0);
     let sigma_a = Rgb::new(0.6, 0.2, 0.1);
-    let volume = |sa: Rgb, ss: Rgb, minorant: bool| {
-        let mut v = Volume::new(
-            "smooth",
-            smooth_grid(),
-            ExtraGrids::default(),
-            raw(sa, ss, PhaseFunction::hg(0.3)),
-            DAffine3::IDENTITY,
-        )
-        .unwrap();
-        v.set_majorant_cell(8, minorant);
-        Media::new(vec![v])
-    };
+    let volume =
+        |sa: Rgb, ss: Rgb, minorant| smooth_media(raw(sa, ss, PhaseFunction::hg(0.3)), minorant);
     let cam = Camera::new(Vec3::new(0.3, -3.0, 0.4), Vec3::ZERO, Vec3::Z, 35.0, 8, 6);
     let light = Light::sun(Vec3::new(-0.4, -0.5, 0.75), Rgb::splat(2.0), 0.0);
     let settings = Settings {

@@ -204,11 +204,6 @@ fn slot_offset(ijk: IVec3) -> usize {
     ((((ijk.x >> 3) & 15) << 8) | (((ijk.y >> 3) & 15) << 4) | ((ijk.z >> 3) & 15)) as usize
 }
 
-/// The inverse transform. For a diagonal matrix (OpenVDB's scale and
-/// scale-translate maps, what nearly every file uses) it is built from exact
-/// reciprocals, as OpenVDB's `ScaleTranslateMap::applyInverseMap` computes
-/// `(p - t) * (1/s)`: a generic matrix inverse can put a point that lies on
-/// a voxel centre one ulp to the other side of it.
 /// `floor(p)` as integers and `p - floor(p)`, without a libm call (baseline
 /// x86-64 has no SSE4.1 `roundps`) and without Rust's saturating float to
 /// int casts (a compare and two conditional moves each): truncate, then
@@ -234,6 +229,11 @@ fn floor_split(p: Vec3) -> (IVec3, Vec3) {
     (i, p - i.as_vec3())
 }
 
+/// The inverse transform. For a diagonal matrix (OpenVDB's scale and
+/// scale-translate maps, what nearly every file uses) it is built from exact
+/// reciprocals, as OpenVDB's `ScaleTranslateMap::applyInverseMap` computes
+/// `(p - t) * (1/s)`: a generic matrix inverse can put a point that lies on
+/// a voxel centre one ulp to the other side of it.
 fn invert(m: &DAffine3) -> Option<(DAffine3, bool)> {
     let det = m.matrix3.determinant();
     if !det.is_finite() || det.abs() < 1e-300 || !m.translation.is_finite() {

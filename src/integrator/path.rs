@@ -128,9 +128,8 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
         let mut new_dir = ray_d;
         let mut new_o = ray_o;
         let mut new_pdf = 0.0;
-        let control = media.control_albedo();
         sample_t_maj(media, ray_o, ray_d, f32::INFINITY, rng, |c, rng| {
-            let Some(step) = tracking::collide(c, control, beta, rng) else {
+            let Some(step) = tracking::collide(c, beta, rng) else {
                 terminated = true;
                 return false;
             };
