@@ -5,28 +5,17 @@
 
 use std::path::Path;
 
-const PACKAGES: &str = "libopenvdb-dev libboost-dev libtbb-dev libimath-dev";
+#[path = "src/build_check.rs"]
+mod build_check;
 
 fn main() {
-    let include_dirs = ["/usr/include", "/usr/local/include"];
-    let has = |h: &str| include_dirs.iter().any(|d| Path::new(d).join(h).exists());
-    let missing: Vec<&str> = [
-        ("openvdb/openvdb.h", "libopenvdb-dev"),
-        ("boost/version.hpp", "libboost-dev"),
-        ("tbb/tbb.h", "libtbb-dev"),
-        ("Imath/ImathConfig.h", "libimath-dev"),
-    ]
-    .iter()
-    .filter(|(h, _)| !has(h))
-    .map(|(_, p)| *p)
-    .collect();
+    let include_dirs = build_check::INCLUDE_DIRS.map(Path::new);
+    let missing = build_check::missing_packages(&include_dirs);
     if !missing.is_empty() {
-        eprintln!(
-            "\nvdbphoton needs the OpenVDB 10 development files, which are not installed \
-             (missing: {}).\nInstall them with:\n\n    sudo apt-get install -y {PACKAGES}\n",
-            missing.join(" ")
-        );
-        panic!("missing system packages: {}", missing.join(" "));
+        // Cargo shows a failed build script's stderr: one clear message and
+        // exit status 1, no panic and no compiler errors after it.
+        eprintln!("\n{}", build_check::missing_message(&missing));
+        std::process::exit(1);
     }
 
     cxx_build::bridge("src/vdb/ffi.rs")
@@ -44,4 +33,5 @@ fn main() {
     println!("cargo:rerun-if-changed=cpp/vdb_bridge.cc");
     println!("cargo:rerun-if-changed=cpp/vdb_bridge.h");
     println!("cargo:rerun-if-changed=src/vdb/ffi.rs");
+    println!("cargo:rerun-if-changed=src/build_check.rs");
 }
