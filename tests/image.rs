@@ -1,5 +1,7 @@
 //! Integration tests of `vdbphoton::image`.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -13,15 +15,6 @@ use vdbphoton::image::{
     ImageRgb,
 };
 use vdbphoton::Rgb;
-
-fn entries(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
 
 fn attrs(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
     pairs
@@ -92,7 +85,7 @@ fn exr_round_trip_is_bit_exact_with_layers_and_attributes() {
         ("passes", "4"),
     ]);
     write_exr(&path, &image, &attributes).unwrap();
-    assert_eq!(entries(dir.path()), vec!["out.exr"]);
+    assert_eq!(common::dir_entries(dir.path()), vec!["out.exr"]);
 
     // Our reader: dimensions and bit-identical RGB.
     let back = read_exr_rgb(&path).unwrap();
@@ -170,7 +163,7 @@ fn exr_write_overwrites_existing_file() {
     write_exr(&path, &image, &[]).unwrap();
     let back = read_exr_rgb(&path).unwrap();
     assert_eq!(back.pixels, vec![Vec3::new(0.5, 0.25, 0.125); 6]);
-    assert_eq!(entries(dir.path()), vec!["x.exr"]);
+    assert_eq!(common::dir_entries(dir.path()), vec!["x.exr"]);
 }
 
 #[test]
@@ -194,7 +187,7 @@ fn write_into_missing_directory_names_the_path_and_leaves_nothing() {
         );
         assert!(!path.exists());
     }
-    assert!(entries(dir.path()).is_empty());
+    assert!(common::dir_entries(dir.path()).is_empty());
 }
 
 #[test]
@@ -216,9 +209,12 @@ fn failing_write_leaves_no_temporary_behind() {
             msg.starts_with(&format!("cannot write '{}': ", target.display())),
             "{msg}"
         );
-        assert!(target.is_dir() && entries(&target).is_empty());
+        assert!(target.is_dir() && common::dir_entries(&target).is_empty());
     }
-    assert_eq!(entries(dir.path()), vec!["taken.exr", "taken.png"]);
+    assert_eq!(
+        common::dir_entries(dir.path()),
+        vec!["taken.exr", "taken.png"]
+    );
 }
 
 #[test]
@@ -244,7 +240,7 @@ fn invalid_exr_arguments_are_errors_without_files() {
         err.to_string().contains("the image is empty (0x3)"),
         "{err}"
     );
-    assert!(entries(dir.path()).is_empty());
+    assert!(common::dir_entries(dir.path()).is_empty());
     // Non-ASCII values are stored as UTF-8 bytes and accepted.
     write_exr(&path, &image, &attrs(&[("note", "Dichte σ")])).unwrap();
 }
@@ -494,7 +490,7 @@ fn png_preview_is_8bit_srgb() {
     write_png_preview(&path, &image, -1.0).unwrap();
     let (_, buf, _) = decode_png(&path);
     assert_eq!(buf[9], 188);
-    assert_eq!(entries(dir.path()), vec!["p.png"]);
+    assert_eq!(common::dir_entries(dir.path()), vec!["p.png"]);
 }
 
 fn rgb_image(width: usize, height: usize, pixels: &[[f32; 3]]) -> ImageRgb {

@@ -4,7 +4,7 @@
 pub mod chi2;
 
 use glam::{DAffine3, DQuat, DVec3, IVec3};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use vdbphoton::grid::{Grid, GridParts, Tile};
 
 /// A small deterministic RNG for test inputs (SplitMix64).
@@ -47,6 +47,16 @@ pub fn real_data() -> Option<PathBuf> {
             Some(p)
         }
     }
+}
+
+/// The names in `dir`, sorted (to check that no temporary file is left).
+pub fn dir_entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
 }
 
 pub fn tempdir() -> tempfile::TempDir {
