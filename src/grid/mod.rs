@@ -559,9 +559,9 @@ impl<T: GridValue> Grid<T> {
     /// ([`Self::block_base`]); the rest take the general loop.
     #[inline(always)]
     fn fetch8(&self, i0: IVec3) -> [T; 8] {
-        let lo = i0 & 7;
+        let edge = (i0 & 7).cmpeq(IVec3::splat(7));
         let s = self.slot(i0);
-        if lo.x != 7 && lo.y != 7 && lo.z != 7 {
+        if !edge.any() {
             // All eight in one block.
             let (base, m) = self.block_base(s, voxel_offset(i0));
             // SAFETY: for a constant every offset is masked to 0; for a
@@ -569,7 +569,6 @@ impl<T: GridValue> Grid<T> {
             // 73 is still inside its 512 values.
             return [0usize, 1, 8, 9, 64, 65, 72, 73].map(|o| unsafe { *base.add(o & m) });
         }
-        let edge = lo.cmpeq(IVec3::splat(7));
         if edge.bitmask().count_ones() == 1 {
             // Two blocks: the four corners low along the crossing axis are
             // in this block, the four high ones at the start of the next.
@@ -591,7 +590,7 @@ impl<T: GridValue> Grid<T> {
             };
         }
         // Four or eight blocks: look each block up once.
-        let step = IVec3::new((lo.x == 7) as i32, (lo.y == 7) as i32, (lo.z == 7) as i32) * 8;
+        let step = IVec3::select(edge, IVec3::splat(8), IVec3::ZERO);
         let mut slots = [s; 8];
         for (c, slot) in slots.iter_mut().enumerate().skip(1) {
             let d = IVec3::new((c >> 2) as i32, ((c >> 1) & 1) as i32, (c & 1) as i32) * step;
@@ -599,9 +598,9 @@ impl<T: GridValue> Grid<T> {
                 *slot = self.slot(i0 + d);
             }
         }
-        let o = |d: i32, l: i32| if l == 7 { -(7 << d) } else { 1 << d };
+        let o = |d: i32, e: bool| if e { -(7 << d) } else { 1 << d };
         let base = voxel_offset(i0) as i32;
-        let (dx, dy, dz) = (o(6, lo.x), o(3, lo.y), o(0, lo.z));
+        let (dx, dy, dz) = (o(6, edge.x), o(3, edge.y), o(0, edge.z));
         std::array::from_fn(|c| {
             let (cx, cy, cz) = ((c >> 2) as i32, ((c >> 1) & 1) as i32, (c & 1) as i32);
             self.value_in(slots[c], (base + cx * dx + cy * dy + cz * dz) as usize)
