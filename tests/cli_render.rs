@@ -57,12 +57,7 @@ fn bundled_scenes_render() {
             text.contains("vdbphoton/spp") && text.contains("vdbphoton/integrator"),
             "{text}"
         );
-        let channels: Vec<String> = header
-            .channels
-            .list
-            .iter()
-            .map(|c| c.name.to_string())
-            .collect();
+        let channels = common::channel_names(header);
         for c in [
             "A",
             "B",

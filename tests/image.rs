@@ -107,12 +107,7 @@ fn exr_round_trip_is_bit_exact_with_layers_and_attributes() {
             other => panic!("attribute {k}: {other:?}"),
         }
     }
-    let names: Vec<String> = header
-        .channels
-        .list
-        .iter()
-        .map(|c| c.name.to_string())
-        .collect();
+    let names = common::channel_names(header);
     assert_eq!(
         names,
         vec![

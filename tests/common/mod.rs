@@ -59,6 +59,16 @@ pub fn dir_entries(dir: &Path) -> Vec<String> {
     v
 }
 
+/// The channel names of an EXR part, in the file's (sorted) order.
+pub fn channel_names(header: &exr::meta::header::Header) -> Vec<String> {
+    header
+        .channels
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect()
+}
+
 pub fn tempdir() -> tempfile::TempDir {
     tempfile::Builder::new()
         .prefix("vdbphoton-test")
