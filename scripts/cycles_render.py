@@ -132,16 +132,22 @@ for i, L in enumerate(cfg.get('lights', [])):
     else:
         raise SystemExit('unknown light ' + t)
 
+def empty_material(name):
+    """A node material with no nodes, to build the shader from scratch."""
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    return m, nt
+
+
 # Plane
 if 'plane' in cfg:
     p = cfg['plane']
     bpy.ops.mesh.primitive_plane_add(size=p.get('size', 20.0), location=(0, 0, 0))
     po = bpy.context.active_object
-    m = bpy.data.materials.new('White')
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
+    m, nt = empty_material('White')
     dif = nt.nodes.new('ShaderNodeBsdfDiffuse')
     a = p.get('albedo', 1.0)
     dif.inputs['Color'].default_value = (a, a, a, 1)
@@ -159,11 +165,7 @@ if 'volume' in cfg:
     vol.render.clipping = 0.0
     vo = bpy.data.objects.new('cloud', vol)
     scene.collection.objects.link(vo)
-    m = bpy.data.materials.new('Vol')
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
+    m, nt = empty_material('Vol')
     pv = nt.nodes.new('ShaderNodeVolumePrincipled')
     pv.inputs['Density'].default_value = v['density']
     col = v['color']
