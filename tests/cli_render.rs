@@ -4,7 +4,6 @@
 
 mod common;
 
-use std::path::Path;
 use std::process::Command;
 
 const BIN: &str = env!("CARGO_BIN_EXE_vdbphoton");
@@ -14,10 +13,6 @@ fn render(args: &[&str]) -> (i32, String) {
     let out = Command::new(BIN).arg("render").args(args).output().unwrap();
     let code = out.status.code().expect("killed by a signal");
     (code, String::from_utf8_lossy(&out.stderr).into_owned())
-}
-
-fn no_files_in(dir: &Path) -> bool {
-    std::fs::read_dir(dir).unwrap().next().is_none()
 }
 
 #[test]
@@ -107,7 +102,10 @@ fn bad_scenes_fail_cleanly_without_output() {
         assert_eq!(err.lines().count(), 1, "{name}: {err}");
         assert!(err.contains(needle), "{name}: '{needle}' not in: {err}");
         assert!(!err.contains("panicked"), "{name}: {err}");
-        assert!(no_files_in(&out_dir), "{name} left a file behind");
+        assert!(
+            common::dir_entries(&out_dir).is_empty(),
+            "{name} left a file behind"
+        );
     }
     // An output directory that does not exist: an error naming the path,
     // and nothing written anywhere.
@@ -134,7 +132,7 @@ fn bad_scenes_fail_cleanly_without_output() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(code, 1, "{err}");
-    assert!(no_files_in(&out_dir));
+    assert!(common::dir_entries(&out_dir).is_empty());
     // An image too large to hold in memory is refused before anything is
     // allocated (65536 x 65536 would also overflow 32-bit pixel counts).
     let (code, err) = render(&[
@@ -149,7 +147,7 @@ fn bad_scenes_fail_cleanly_without_output() {
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("4294967296 pixels"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(no_files_in(&out_dir));
+    assert!(common::dir_entries(&out_dir).is_empty());
 }
 
 #[test]
@@ -214,11 +212,7 @@ fn export_vol_writes_a_whole_file_or_nothing() {
     let n = (int(1) * int(2) * int(3)) as usize;
     assert!(n > 1000);
     assert_eq!(bytes.len(), 48 + 4 * n);
-    let names: Vec<_> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(names, ["c.vol"]);
+    assert_eq!(common::dir_entries(dir.path()), ["c.vol"]);
 
     let missing = dir.path().join("no/such/dir/c.vol");
     let out = Command::new(BIN)
