@@ -7,14 +7,12 @@
 
 use std::path::Path;
 
-/// What `apt-get install` needs on Debian 12 to build the bridge.
-pub const PACKAGES: &str = "libopenvdb-dev libboost-dev libtbb-dev libimath-dev";
-
 /// Where Debian's packages put their headers.
 pub const INCLUDE_DIRS: [&str; 2] = ["/usr/include", "/usr/local/include"];
 
-/// One header per package: OpenVDB's headers include Boost and TBB, and the
-/// link needs Imath (without it: `imath_half_to_float_table`).
+/// One header per Debian 12 package the bridge needs: OpenVDB's headers
+/// include Boost and TBB, and the link needs Imath (without it:
+/// `imath_half_to_float_table`).
 pub const REQUIRED: [(&str, &str); 4] = [
     ("openvdb/openvdb.h", "libopenvdb-dev"),
     ("boost/version.hpp", "libboost-dev"),
@@ -33,11 +31,13 @@ pub fn missing_packages(include_dirs: &[&Path]) -> Vec<&'static str> {
 }
 
 /// The message the build stops with: what is missing and the one command
-/// that installs it, instead of a wall of compiler errors.
+/// that installs every package in `REQUIRED`, instead of a wall of compiler
+/// errors.
 pub fn missing_message(missing: &[&str]) -> String {
     format!(
         "vdbphoton needs the OpenVDB 10 development files, which are not installed \
-         (missing: {}).\nInstall them with:\n\n    sudo apt-get install -y {PACKAGES}\n",
-        missing.join(" ")
+         (missing: {}).\nInstall them with:\n\n    sudo apt-get install -y {}\n",
+        missing.join(" "),
+        REQUIRED.map(|(_, p)| p).join(" ")
     )
 }
