@@ -170,6 +170,17 @@ fn far_and_nan_points_read_the_background() {
         }
         // Just inside the range check, far outside the data: background.
         assert_eq!(g.sample_index(Vec3::splat(1.0e9)), g.background());
+        // The double-precision path too (its integer cast would saturate).
+        for p in [
+            DVec3::new(1e12, 0.0, 0.0),
+            DVec3::new(0.0, -3e9, 0.0),
+            DVec3::new(f64::NAN, 0.0, 0.0),
+            DVec3::new(0.0, 0.0, f64::NEG_INFINITY),
+        ] {
+            assert_eq!(g.sample_index_f64(p), g.background(), "at {p}");
+            let w = g.world_from_index().transform_point3(p);
+            assert_eq!(g.sample_world(w), g.background(), "at {p}");
+        }
     }
 }
 
