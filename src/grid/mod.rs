@@ -39,6 +39,10 @@ const NODE_SLOTS: usize = 4096;
 const CONST_BIT: u32 = 1 << 31;
 /// `constants[0]` is the background, so "empty" is constant 0.
 const EMPTY: u32 = CONST_BIT;
+/// Index coordinates are inside ±2^30 (OpenVDB's are 32-bit): points
+/// beyond, and NaN, lie outside every grid, and the integer casts of the
+/// lookups never overflow.
+const COORD_LIMIT: f32 = (1u32 << 30) as f32;
 /// The largest top index we allocate (entries of 4 bytes): 2^24 regions of
 /// 128^3 voxels, i.e. an extent of about 32768^3 voxels.
 const MAX_TOP_ENTRIES: i64 = 1 << 24;
@@ -202,11 +206,22 @@ pub struct Grid<T: GridValue> {
     /// First block of `flat` (voxel coordinates / 8) and blocks per axis.
     flat_origin: IVec3,
     flat_dims: IVec3,
-    /// Entries per row (y step) and per layer (z step) of `flat`.
-    flat_stride: [usize; 2],
     /// Inclusive voxel bounds of everything stored (bricks and tiles).
     bounds: Option<(IVec3, IVec3)>,
     all_finite: bool,
+}
+
+/// Whether `t` is a cell of a dense array of `dims` cells (one unsigned
+/// compare per axis also rejects negative coordinates).
+#[inline(always)]
+fn inside(t: IVec3, dims: IVec3) -> bool {
+    (t.x as u32) < dims.x as u32 && (t.y as u32) < dims.y as u32 && (t.z as u32) < dims.z as u32
+}
+
+/// The position of cell `t` in a dense array of `dims` cells, x fastest.
+#[inline(always)]
+fn linear_index(t: IVec3, dims: IVec3) -> usize {
+    (t.z as usize * dims.y as usize + t.y as usize) * dims.x as usize + t.x as usize
 }
 
 #[inline(always)]
@@ -240,7 +255,7 @@ fn floor_split(p: Vec3) -> Option<(IVec3, Vec3)> {
             let v = _mm_set_ps(0.0, p.z, p.y, p.x);
             let a = _mm_andnot_ps(_mm_set1_ps(-0.0), v);
             // NaN compares false, so it fails the range check too.
-            let ok = _mm_movemask_ps(_mm_cmplt_ps(a, _mm_set1_ps((1u32 << 30) as f32)));
+            let ok = _mm_movemask_ps(_mm_cmplt_ps(a, _mm_set1_ps(COORD_LIMIT)));
             if ok & 7 != 7 {
                 return None;
             }
@@ -261,9 +276,8 @@ fn floor_split(p: Vec3) -> Option<(IVec3, Vec3)> {
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        const LIMIT: f32 = (1u32 << 30) as f32;
         // A per-component test: `max_element` would skip a NaN.
-        if !p.abs().cmplt(Vec3::splat(LIMIT)).all() {
+        if !p.abs().cmplt(Vec3::splat(COORD_LIMIT)).all() {
             return None;
         }
         // SAFETY: every component is finite and below 2^30 in magnitude.
@@ -401,7 +415,6 @@ impl<T: GridValue> Grid<T> {
             flat: Vec::new(),
             flat_origin: IVec3::ZERO,
             flat_dims: IVec3::ZERO,
-            flat_stride: [0, 0],
             bounds,
             all_finite: true,
         };
@@ -466,8 +479,7 @@ impl<T: GridValue> Grid<T> {
 
     #[inline(always)]
     fn top_index(&self, t: IVec3) -> usize {
-        ((t.z as usize * self.top_dims.y as usize) + t.y as usize) * self.top_dims.x as usize
-            + t.x as usize
+        linear_index(t, self.top_dims)
     }
 
     /// The node slot for the brick containing `ijk`, creating the node.
@@ -514,7 +526,6 @@ impl<T: GridValue> Grid<T> {
         self.flat = flat;
         self.flat_origin = a;
         self.flat_dims = d.as_ivec3();
-        self.flat_stride = [d.x as usize, (d.x * d.y) as usize];
     }
 
     /// The slot code of the 8^3 block that holds voxel `ijk`.
@@ -524,14 +535,10 @@ impl<T: GridValue> Grid<T> {
             return self.slot_two_level(ijk);
         }
         let t = (ijk >> 3_i32) - self.flat_origin;
-        if (t.x as u32) >= self.flat_dims.x as u32
-            || (t.y as u32) >= self.flat_dims.y as u32
-            || (t.z as u32) >= self.flat_dims.z as u32
-        {
+        if !inside(t, self.flat_dims) {
             return EMPTY;
         }
-        let i =
-            t.x as usize + t.y as usize * self.flat_stride[0] + t.z as usize * self.flat_stride[1];
+        let i = linear_index(t, self.flat_dims);
         debug_assert!(i < self.flat.len());
         // SAFETY: 0 <= t < flat_dims by the check above, and `flat` has
         // flat_dims.x * flat_dims.y * flat_dims.z entries (`build_flat`).
@@ -542,10 +549,7 @@ impl<T: GridValue> Grid<T> {
     #[inline(always)]
     fn slot_two_level(&self, ijk: IVec3) -> u32 {
         let t = (ijk >> LOG2_NODE_VOXELS) - self.top_origin;
-        if (t.x as u32) >= self.top_dims.x as u32
-            || (t.y as u32) >= self.top_dims.y as u32
-            || (t.z as u32) >= self.top_dims.z as u32
-        {
+        if !inside(t, self.top_dims) {
             return EMPTY;
         }
         let i = self.top_index(t);
@@ -698,7 +702,7 @@ impl<T: GridValue> Grid<T> {
         let f = p.floor();
         // As in `floor_split`: beyond ±2^30 (and NaN) is outside any grid,
         // and the integer cast below would saturate.
-        if !f.abs().cmplt(DVec3::splat((1u32 << 30) as f64)).all() {
+        if !f.abs().cmplt(DVec3::splat(COORD_LIMIT as f64)).all() {
             return self.background;
         }
         let w = p - f;
@@ -1008,15 +1012,10 @@ mod tests {
         assert!(blocks > 200);
         // And the samples, bit for bit, at points spread over the extent.
         let size = (hi - lo + 9).as_vec3();
-        let mut x = 0x2545_F491_4F6C_DD1Du64;
-        let mut r = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = crate::sampling::Rng::new(1, 0, 0);
         for _ in 0..20_000 {
-            let p = (lo - 4).as_vec3() + Vec3::new(r(), r(), r()) * size;
+            let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let p = (lo - 4).as_vec3() + u * size;
             assert_eq!(g.sample_index(p).to_bits(), two.sample_index(p).to_bits());
         }
     }
@@ -1067,7 +1066,7 @@ mod tests {
             assert_eq!(i.as_vec3(), f, "{p}");
             assert_eq!(w, p - f, "{p}");
         }
-        let far = (1u32 << 30) as f32;
+        let far = COORD_LIMIT;
         for p in [
             Vec3::new(far, 0.0, 0.0),
             Vec3::new(0.0, -far, 0.0),
