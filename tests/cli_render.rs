@@ -194,12 +194,15 @@ fn export_vol_writes_a_whole_file_or_nothing() {
     // dense file, the temporary name gone after success, and nothing left
     // behind when the output cannot be written.
     let dir = common::tempdir();
+    let export = |to: &std::path::Path| {
+        Command::new(BIN)
+            .args(["export-vol", &format!("{SCENES}/cloud.vdb")])
+            .arg(to)
+            .output()
+            .unwrap()
+    };
     let vol = dir.path().join("c.vol");
-    let out = Command::new(BIN)
-        .args(["export-vol", &format!("{SCENES}/cloud.vdb")])
-        .arg(&vol)
-        .output()
-        .unwrap();
+    let out = export(&vol);
     assert!(
         out.status.success(),
         "{}",
@@ -214,12 +217,7 @@ fn export_vol_writes_a_whole_file_or_nothing() {
     assert_eq!(bytes.len(), 48 + 4 * n);
     assert_eq!(common::dir_entries(dir.path()), ["c.vol"]);
 
-    let missing = dir.path().join("no/such/dir/c.vol");
-    let out = Command::new(BIN)
-        .args(["export-vol", &format!("{SCENES}/cloud.vdb")])
-        .arg(&missing)
-        .output()
-        .unwrap();
+    let out = export(&dir.path().join("no/such/dir/c.vol"));
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("no/such/dir/c.vol"), "{err}");
