@@ -15,7 +15,10 @@ use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vdbphoton::vdb::{reference, write_vdb, AnyGrid, VdbFile};
-use vdbphoton::{generate, grid::Grid};
+use vdbphoton::{
+    generate,
+    grid::{BrickValues, Grid},
+};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());
@@ -56,8 +59,9 @@ fn lookups_per_second(g: &Grid<f32>) -> (f64, usize) {
     std::hint::black_box(sink);
     // Context: the same number of plain random reads from a flat array as
     // large as the grid's values (no index, no interpolation).
+    // Aligned as the grid's bricks are (`BrickValues`).
     let len = (g.brick_count() * 512).max(1);
-    let flat: Vec<f32> = (0..len).map(|i| i as f32).collect();
+    let flat: BrickValues<f32> = (0..len).map(|i| i as f32).collect::<Vec<_>>().into();
     let idx: Vec<u32> = pts
         .iter()
         .map(|p| (p.x.to_bits().wrapping_mul(2654435761) ^ p.z.to_bits()) % len as u32)

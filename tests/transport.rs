@@ -314,7 +314,7 @@ fn dda_exact_entry_exit_and_signed_zero_directions() {
     let mut vals = vec![0.0f32; 512];
     vals[0] = 1.0;
     vals[64] = 2.0;
-    p.values = vals;
+    p.values = vals.into();
     p.masks.push([1 | (1 << 0), 0, 0, 0, 0, 0, 0, 0]);
     let g = Grid::from_parts(p).unwrap();
     let m = MajorantGrid::build(&g, 8).unwrap();

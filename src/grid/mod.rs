@@ -3,7 +3,9 @@
 //! Layout (see ARCHITECTURE.md for why):
 //! - voxel values live in 8^3 *bricks* (OpenVDB's leaf size and voxel order,
 //!   `offset = (x&7)<<6 | (y&7)<<3 | (z&7)`), so a whole leaf copies from
-//!   OpenVDB with one `memcpy`;
+//!   OpenVDB with one `memcpy`, stored aligned to 2048 bytes
+//!   ([`BrickValues`]) so a lookup's eight corners span as few cache lines
+//!   as the layout allows;
 //! - a dense *top index* covers the grid's extent in 128^3-voxel regions; each
 //!   entry is a constant (background, or a 128^3/4096^3 tile) or a *node* of
 //!   16^3 slots; a slot is a constant (background or an 8^3 tile) or a brick;
@@ -21,8 +23,10 @@
 //! `tools::BoxSampler`: index (i,j,k) is a voxel centre and world =
 //! `world_from_index` · index.
 
+mod bricks;
 mod value;
 
+pub use bricks::BrickValues;
 pub use value::GridValue;
 
 use crate::error::{Error, Result};
@@ -73,7 +77,7 @@ impl<T> Tile<T> {
 
 /// The pieces a grid is made of, as they come from a file or a generator.
 #[derive(Debug, Clone)]
-pub struct GridParts<T> {
+pub struct GridParts<T: GridValue> {
     pub name: String,
     /// OpenVDB's grid class: `fog volume`, `level set`, `staggered`, `unknown`.
     pub class: String,
@@ -82,7 +86,7 @@ pub struct GridParts<T> {
     /// Origins (multiples of 8) of the bricks.
     pub brick_origins: Vec<IVec3>,
     /// 512 values per brick, in OpenVDB's order.
-    pub values: Vec<T>,
+    pub values: BrickValues<T>,
     /// Active masks, 8 words per brick, bit `x<<6|y<<3|z`.
     pub masks: Vec<[u64; 8]>,
     pub tiles: Vec<Tile<T>>,
@@ -96,7 +100,7 @@ impl<T: GridValue> GridParts<T> {
             background,
             world_from_index,
             brick_origins: Vec::new(),
-            values: Vec::new(),
+            values: BrickValues::new(),
             masks: Vec::new(),
             tiles: Vec::new(),
         }
@@ -130,7 +134,7 @@ impl<T: GridValue> GridParts<T> {
             }
         }
         if keep.len() != self.brick_origins.len() {
-            let mut values = Vec::with_capacity(keep.len() * BRICK_VOXELS);
+            let mut values = BrickValues::with_brick_capacity(keep.len());
             for &b in &keep {
                 values.extend_from_slice(&self.values[b * BRICK_VOXELS..(b + 1) * BRICK_VOXELS]);
             }
@@ -183,7 +187,7 @@ pub struct Grid<T: GridValue> {
     /// For a diagonal map this holds 1/s and -t (see `world_to_index`).
     index_from_world: DAffine3,
     diagonal: bool,
-    values: Vec<T>,
+    values: BrickValues<T>,
     brick_origins: Vec<IVec3>,
     masks: Vec<[u64; 8]>,
     /// Per brick: [min, max] over all 512 values (active or not: trilinear
@@ -634,8 +638,12 @@ impl<T: GridValue> Grid<T> {
     /// ([`Self::block_base`]); the rest take the general loop.
     #[inline(always)]
     fn fetch8(&self, i0: IVec3) -> [T; 8] {
+        self.fetch8_with(i0, self.slot(i0))
+    }
+
+    #[inline(always)]
+    fn fetch8_with(&self, i0: IVec3, s: u32) -> [T; 8] {
         let edge = (i0 & 7).cmpeq(IVec3::splat(7));
-        let s = self.slot(i0);
         if !edge.any() {
             // All eight in one block.
             let (base, m) = self.block_base(s, voxel_offset(i0));
@@ -935,7 +943,7 @@ impl<T: GridValue> Grid<T> {
     pub fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
         size_of::<Self>()
-            + self.values.capacity() * size_of::<T>()
+            + self.values.capacity_bytes()
             + self.brick_origins.capacity() * size_of::<IVec3>()
             + self.masks.capacity() * size_of::<[u64; 8]>()
             + self.ranges.capacity() * size_of::<[T; 2]>()

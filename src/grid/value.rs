@@ -24,8 +24,8 @@ pub trait GridValue: Copy + PartialEq + Send + Sync + std::fmt::Debug + 'static 
     /// [min, max] over `v` (NaN ignored) and whether every value is finite.
     /// Written to vectorise: it runs over every voxel at load time.
     fn range_of(v: &[Self]) -> ([Self; 2], bool);
-    /// Takes ownership of `CHANNELS` floats per value (no copy for `f32`).
-    fn from_flat(v: Vec<f32>) -> Vec<Self>;
+    /// The values as `CHANNELS` floats each, in place (for bulk copies).
+    fn as_floats_mut(v: &mut [Self]) -> &mut [f32];
     /// `CHANNELS` floats per value.
     fn to_flat(v: &[Self]) -> Vec<f32>;
 }
@@ -95,7 +95,7 @@ impl GridValue for f32 {
         let hi = hi.iter().copied().fold(f32::NEG_INFINITY, f32::max);
         ([lo, hi], special == 0)
     }
-    fn from_flat(v: Vec<f32>) -> Vec<Self> {
+    fn as_floats_mut(v: &mut [Self]) -> &mut [f32] {
         v
     }
     fn to_flat(v: &[Self]) -> Vec<f32> {
@@ -158,8 +158,13 @@ impl GridValue for Vec3 {
         }
         ([lo, hi], finite)
     }
-    fn from_flat(v: Vec<f32>) -> Vec<Self> {
-        v.chunks_exact(3).map(Vec3::from_slice).collect()
+    fn as_floats_mut(v: &mut [Self]) -> &mut [f32] {
+        const _: () =
+            assert!(std::mem::size_of::<Vec3>() == 12 && std::mem::align_of::<Vec3>() == 4);
+        // SAFETY: glam's `Vec3` is `repr(C)` with fields x, y, z of f32 and
+        // no padding (checked above), so n of them are 3n floats, and any
+        // float bits are a valid `Vec3`.
+        unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f32>(), 3 * v.len()) }
     }
     fn to_flat(v: &[Self]) -> Vec<f32> {
         v.iter().flat_map(|x| x.to_array()).collect()

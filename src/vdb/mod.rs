@@ -11,7 +11,7 @@ mod ffi;
 pub mod header;
 
 use crate::error::{Error, Result};
-use crate::grid::{Grid, GridParts, GridValue, Tile};
+use crate::grid::{BrickValues, Grid, GridParts, GridValue, Tile};
 use ffi::bridge;
 use glam::{DAffine3, DMat3, DVec3, IVec3, Vec3};
 pub use header::{GridDescriptor, Header};
@@ -213,9 +213,10 @@ impl VdbFile {
             ));
         }
         let mut origins = vec![0i32; 3 * n];
-        let mut values = vec![0f32; 512 * channels * n];
+        let mut values = BrickValues::<T>::zeroed(n);
         let mut masks = vec![0u64; 8 * n];
-        bridge::copy_leaves(&loaded, &mut origins, &mut values, &mut masks).map_err(openvdb_err)?;
+        bridge::copy_leaves(&loaded, &mut origins, values.as_floats_mut(), &mut masks)
+            .map_err(openvdb_err)?;
         drop(loaded);
         let parts = parts_from_layout::<T>(layout, origins, values, masks);
         Grid::from_parts(parts).map_err(|e| Error::grid(&self.path, &d.name, e.to_string()))
@@ -244,7 +245,7 @@ impl VdbFile {
 fn parts_from_layout<T: GridValue>(
     d: bridge::GridLayout,
     origins: Vec<i32>,
-    values: Vec<f32>,
+    values: BrickValues<T>,
     masks: Vec<u64>,
 ) -> GridParts<T> {
     let brick_origins = origins
@@ -274,7 +275,7 @@ fn parts_from_layout<T: GridValue>(
         background: T::from_slice(&d.background),
         world_from_index: affine_from_rows(&d.info.world_from_index),
         brick_origins,
-        values: T::from_flat(values),
+        values,
         masks,
         tiles,
     }
