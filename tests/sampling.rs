@@ -153,6 +153,95 @@ fn single_precision_index_path_agrees() {
     }
 }
 
+/// `sample_index_batch` returns `sample_index` bit for bit at `pts`, in
+/// batches of every length from 0 to 40 and in one batch of all of them.
+fn check_batch<T: GridValue>(g: &Grid<T>, pts: &[Vec3]) {
+    let bits = |v: T| {
+        T::to_flat(&[v])
+            .iter()
+            .map(|f| f.to_bits())
+            .collect::<Vec<_>>()
+    };
+    let single: Vec<T> = pts.iter().map(|p| g.sample_index(*p)).collect();
+    let mut out = vec![T::zero(); pts.len()];
+    g.sample_index_batch(pts, &mut out);
+    for (i, p) in pts.iter().enumerate() {
+        assert_eq!(bits(out[i]), bits(single[i]), "at {p} (point {i})");
+    }
+    let mut start = 0;
+    for len in (0..=40).cycle() {
+        let end = (start + len).min(pts.len());
+        let mut out = vec![T::zero(); end - start];
+        g.sample_index_batch(&pts[start..end], &mut out);
+        for (k, v) in out.iter().enumerate() {
+            assert_eq!(
+                bits(*v),
+                bits(single[start + k]),
+                "batch of {len}, point {}",
+                start + k
+            );
+        }
+        start = end;
+        if start == pts.len() {
+            break;
+        }
+    }
+}
+
+/// Points over the stored region padded by 10 voxels: half at random, half
+/// in the last voxel of a block along one, two or three axes (the cells
+/// whose corners span two, four or eight blocks), with far and NaN points
+/// mixed in.
+fn batch_points(lo: IVec3, hi: IVec3, seed: u64) -> Vec<Vec3> {
+    let (lo, hi) = (lo.as_dvec3() - 10.0, hi.as_dvec3() + 10.0);
+    let mut rng = common::TestRng(seed);
+    (0..20_011)
+        .map(|i| {
+            let mut p = DVec3::new(
+                rng.range(lo.x, hi.x),
+                rng.range(lo.y, hi.y),
+                rng.range(lo.z, hi.z),
+            );
+            if i % 2 == 1 {
+                let axes = rng.next_u64();
+                for a in 0..3 {
+                    if axes >> a & 1 == 1 {
+                        p[a] = (p[a] / 8.0).floor() * 8.0 + 7.0 + rng.f64();
+                    }
+                }
+            }
+            match i % 97 {
+                13 => Vec3::new(f32::NAN, 1.0, 2.0),
+                29 => Vec3::new(0.0, -3e9, 0.0),
+                _ => p.as_vec3(),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn batched_lookups_equal_single_lookups() {
+    // A grid with tiles at two levels and the two-level index, a generated
+    // cloud with the flat index, and a vec3s grid.
+    for (g, seed) in [
+        (common::hand_built(), 1),
+        (generate::cloud(48, 2).unwrap(), 2),
+    ] {
+        let (lo, hi) = g.stored_bounds().unwrap();
+        check_batch(&g, &batch_points(lo, hi, seed));
+    }
+    let grids = generate::plume(32, 3).unwrap();
+    let vel = grids
+        .iter()
+        .find_map(|g| match g {
+            AnyGrid::Vec3(v) => Some(v),
+            _ => None,
+        })
+        .expect("the plume has a vec3s grid");
+    let (lo, hi) = vel.stored_bounds().unwrap();
+    check_batch(vel, &batch_points(lo, hi, 3));
+}
+
 #[test]
 fn far_and_nan_points_read_the_background() {
     // Points beyond ±2^30 in index space and NaN read the background rather

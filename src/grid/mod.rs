@@ -30,7 +30,7 @@ pub use bricks::BrickValues;
 pub use value::GridValue;
 
 use crate::error::{Error, Result};
-use glam::{DAffine3, DVec3, IVec3, Vec3};
+use glam::{BVec3, DAffine3, DVec3, IVec3, Vec3};
 use rayon::prelude::*;
 
 /// Voxels along an edge of a brick (OpenVDB's leaf node).
@@ -214,6 +214,11 @@ pub struct Grid<T: GridValue> {
     bounds: Option<(IVec3, IVec3)>,
     all_finite: bool,
 }
+
+/// Points per pass of [`Grid::sample_index_batch`]: enough lookups in
+/// flight to cover memory latency, few enough that the first pass's cache
+/// lines are still there for the second.
+pub const BATCH_LANES: usize = 16;
 
 /// Whether `t` is a cell of a dense array of `dims` cells (one unsigned
 /// compare per axis also rejects negative coordinates).
@@ -638,41 +643,52 @@ impl<T: GridValue> Grid<T> {
     /// ([`Self::block_base`]); the rest take the general loop.
     #[inline(always)]
     fn fetch8(&self, i0: IVec3) -> [T; 8] {
-        self.fetch8_with(i0, self.slot(i0))
-    }
-
-    #[inline(always)]
-    fn fetch8_with(&self, i0: IVec3, s: u32) -> [T; 8] {
+        let s = self.slot(i0);
         let edge = (i0 & 7).cmpeq(IVec3::splat(7));
         if !edge.any() {
-            // All eight in one block.
-            let (base, m) = self.block_base(s, voxel_offset(i0));
-            // SAFETY: for a constant every offset is masked to 0; for a
-            // brick, with no coordinate at 7 in the block, the offset plus
-            // 73 is still inside its 512 values.
-            return [0usize, 1, 8, 9, 64, 65, 72, 73].map(|o| unsafe { *base.add(o & m) });
+            return self.fetch_one_block(i0, s);
         }
         if edge.bitmask().count_ones() == 1 {
-            // Two blocks: the four corners low along the crossing axis are
-            // in this block, the four high ones at the start of the next.
-            let unit = IVec3::select(edge, IVec3::ONE, IVec3::ZERO);
-            let sn = self.slot(i0 + unit * 8);
-            let (bl, ml) = self.block_base(s, voxel_offset(i0));
-            let (bh, mh) = self.block_base(sn, voxel_offset(i0 + unit));
-            // SAFETY: as in the one-block case; in each block the offsets
-            // stay on the axes that do not cross, where the coordinate is
-            // below 7.
-            let l = |o: usize| unsafe { *bl.add(o & ml) };
-            let h = |o: usize| unsafe { *bh.add(o & mh) };
-            return if edge.x {
-                [l(0), l(1), l(8), l(9), h(0), h(1), h(8), h(9)]
-            } else if edge.y {
-                [l(0), l(1), h(0), h(1), l(64), l(65), h(64), h(65)]
-            } else {
-                [l(0), h(0), l(8), h(8), l(64), h(64), l(72), h(72)]
-            };
+            let next = i0 + IVec3::select(edge, IVec3::ONE, IVec3::ZERO);
+            return self.fetch_two_blocks(i0, edge, s, self.slot(next));
         }
-        // Four or eight blocks: look each block up once.
+        self.fetch_general(i0, edge, s)
+    }
+
+    /// [`Self::fetch8`] with all eight corners in the block of slot `s`.
+    #[inline(always)]
+    fn fetch_one_block(&self, i0: IVec3, s: u32) -> [T; 8] {
+        let (base, m) = self.block_base(s, voxel_offset(i0));
+        // SAFETY: for a constant every offset is masked to 0; for a brick,
+        // with no coordinate at 7 in the block, the offset plus 73 is still
+        // inside its 512 values.
+        [0usize, 1, 8, 9, 64, 65, 72, 73].map(|o| unsafe { *base.add(o & m) })
+    }
+
+    /// [`Self::fetch8`] across the one face `edge` of the block of slot `s`:
+    /// the four corners low along the crossing axis are in this block, the
+    /// four high ones at the start of the next (slot `sn`).
+    #[inline(always)]
+    fn fetch_two_blocks(&self, i0: IVec3, edge: BVec3, s: u32, sn: u32) -> [T; 8] {
+        let unit = IVec3::select(edge, IVec3::ONE, IVec3::ZERO);
+        let (bl, ml) = self.block_base(s, voxel_offset(i0));
+        let (bh, mh) = self.block_base(sn, voxel_offset(i0 + unit));
+        // SAFETY: as in the one-block case; in each block the offsets stay
+        // on the axes that do not cross, where the coordinate is below 7.
+        let l = |o: usize| unsafe { *bl.add(o & ml) };
+        let h = |o: usize| unsafe { *bh.add(o & mh) };
+        if edge.x {
+            [l(0), l(1), l(8), l(9), h(0), h(1), h(8), h(9)]
+        } else if edge.y {
+            [l(0), l(1), h(0), h(1), l(64), l(65), h(64), h(65)]
+        } else {
+            [l(0), h(0), l(8), h(8), l(64), h(64), l(72), h(72)]
+        }
+    }
+
+    /// [`Self::fetch8`] across an edge or corner: each block looked up once.
+    #[inline(always)]
+    fn fetch_general(&self, i0: IVec3, edge: BVec3, s: u32) -> [T; 8] {
         let step = IVec3::select(edge, IVec3::splat(8), IVec3::ZERO);
         let mut slots = [s; 8];
         for (c, slot) in slots.iter_mut().enumerate().skip(1) {
@@ -690,6 +706,15 @@ impl<T: GridValue> Grid<T> {
         })
     }
 
+    /// Trilinear interpolation of the eight corners, in `BoxSampler`'s order.
+    #[inline(always)]
+    fn interpolate(d: [T; 8], w: Vec3) -> T {
+        let l = T::lerp_f32;
+        let y0 = l(l(d[0], d[1], w.z), l(d[2], d[3], w.z), w.y);
+        let y1 = l(l(d[4], d[5], w.z), l(d[6], d[7], w.z), w.y);
+        l(y0, y1, w.x)
+    }
+
     /// Trilinear sample at a point in index space (single precision: the
     /// renderer's path, which transforms rays into index space once).
     #[inline(always)]
@@ -697,11 +722,86 @@ impl<T: GridValue> Grid<T> {
         let Some((i0, w)) = floor_split(p) else {
             return self.background;
         };
-        let d = self.fetch8(i0);
-        let l = T::lerp_f32;
-        let y0 = l(l(d[0], d[1], w.z), l(d[2], d[3], w.z), w.y);
-        let y1 = l(l(d[4], d[5], w.z), l(d[6], d[7], w.z), w.y);
-        l(y0, y1, w.x)
+        Self::interpolate(self.fetch8(i0), w)
+    }
+
+    /// [`Self::sample_index`] at many independent points: `out[i]` is
+    /// `sample_index(points[i])`, bit for bit.
+    ///
+    /// Why a batch: in a grid larger than the caches each lookup waits on
+    /// memory for its values, and one point at a time the processor
+    /// overlaps only the few lookups its reorder window holds. Here points
+    /// go [`BATCH_LANES`] at a time through two passes: the first finds
+    /// each point's blocks and prefetches the cache lines of its corners,
+    /// the second interpolates once they have arrived. On the generated
+    /// 512^3 cloud this about doubles random lookups per second; on grids
+    /// in cache it is no faster than single lookups (see `benches/grid.rs`).
+    /// It is meant for callers with many independent points at once, such
+    /// as photons or rays traced in lockstep.
+    ///
+    /// # Panics
+    /// If `points` and `out` differ in length.
+    pub fn sample_index_batch(&self, points: &[Vec3], out: &mut [T]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        const N: usize = BATCH_LANES;
+        for (pc, oc) in points.chunks(N).zip(out.chunks_mut(N)) {
+            let mut i0s = [IVec3::ZERO; N];
+            let mut ws = [Vec3::ZERO; N];
+            let mut slots = [(EMPTY, EMPTY); N];
+            let mut inside = [false; N];
+            for (j, p) in pc.iter().enumerate() {
+                let Some((i0, w)) = floor_split(*p) else {
+                    continue;
+                };
+                let s = self.slot(i0);
+                self.prefetch_corners(s, voxel_offset(i0));
+                let edge = (i0 & 7).cmpeq(IVec3::splat(7));
+                let mut sn = s;
+                if edge.any() && edge.bitmask().count_ones() == 1 {
+                    let next = i0 + IVec3::select(edge, IVec3::ONE, IVec3::ZERO);
+                    sn = self.slot(next);
+                    self.prefetch_corners(sn, voxel_offset(next));
+                }
+                (i0s[j], ws[j], slots[j], inside[j]) = (i0, w, (s, sn), true);
+            }
+            for (j, o) in oc.iter_mut().enumerate() {
+                if !inside[j] {
+                    *o = self.background;
+                    continue;
+                }
+                let (i0, (s, sn)) = (i0s[j], slots[j]);
+                let edge = (i0 & 7).cmpeq(IVec3::splat(7));
+                let d = if !edge.any() {
+                    self.fetch_one_block(i0, s)
+                } else if edge.bitmask().count_ones() == 1 {
+                    self.fetch_two_blocks(i0, edge, s, sn)
+                } else {
+                    self.fetch_general(i0, edge, s)
+                };
+                *o = Self::interpolate(d, ws[j]);
+            }
+        }
+    }
+
+    /// Asks for the cache lines holding the corners of a lookup at voxel
+    /// offset `v` of the block with slot code `s` (its two x planes, and
+    /// the next row in each, which may start a new line). A hint only: it
+    /// reads nothing and cannot fault.
+    #[inline(always)]
+    fn prefetch_corners(&self, s: u32, v: usize) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let (base, _) = self.block_base(s, v);
+            for o in [0usize, 9, 64, 73] {
+                // SAFETY: a prefetch is a hint; it does not access memory in
+                // the language's sense, so any address is sound (the
+                // pointer is formed with wrapping arithmetic).
+                unsafe { _mm_prefetch(base.wrapping_add(o) as *const i8, _MM_HINT_T0) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (s, v);
     }
 
     /// Trilinear sample at a point in index space, in double precision,
