@@ -320,9 +320,13 @@ GridLayout grid_layout(const LoadedGrid& g) {
     return out;
 }
 
-void copy_leaves(const LoadedGrid& g, rust::Slice<int32_t> origins, rust::Slice<float> values,
+// `values` is memory Rust has not initialised: every float of it is
+// written before this returns normally (copy_leaves_of checks the sizes and
+// the leaves before it writes anything, then copies every leaf whole).
+void copy_leaves(const LoadedGrid& g, rust::Slice<int32_t> origins, float* values, size_t values_len,
                  rust::Slice<uint64_t> masks) {
-    if (!with_typed(*g.impl->grid, [&](const auto& typed) { copy_leaves_of(typed, origins, values, masks); }))
+    const rust::Slice<float> v(values, values_len);
+    if (!with_typed(*g.impl->grid, [&](const auto& typed) { copy_leaves_of(typed, origins, v, masks); }))
         throw std::runtime_error("unsupported value type " + g.impl->grid->valueType());
 }
 

@@ -34,7 +34,7 @@ public:
 FileInfo read_file_info(rust::Str path);
 std::unique_ptr<LoadedGrid> load_grid(rust::Str path, rust::Str grid);
 GridLayout grid_layout(const LoadedGrid& g);
-void copy_leaves(const LoadedGrid& g, rust::Slice<int32_t> origins, rust::Slice<float> values,
+void copy_leaves(const LoadedGrid& g, rust::Slice<int32_t> origins, float* values, size_t values_len,
                  rust::Slice<uint64_t> masks);
 void write_grids(rust::Str path, rust::Slice<const GridData> grids, rust::Str creator);
 rust::Vec<float> box_sample_world(rust::Str path, rust::Str grid, rust::Slice<const double> xyz);

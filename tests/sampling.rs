@@ -3,10 +3,10 @@
 
 mod common;
 
-use glam::{DVec3, IVec3, Vec3};
+use glam::{DAffine3, DVec3, IVec3, Vec3};
 use std::path::Path;
 use vdbphoton::generate;
-use vdbphoton::grid::{Grid, GridValue};
+use vdbphoton::grid::{Grid, GridParts, GridValue, Tile};
 use vdbphoton::vdb::{reference, write_vdb, AnyGrid, VdbFile};
 
 const POINTS: usize = 100_000;
@@ -219,16 +219,67 @@ fn batch_points(lo: IVec3, hi: IVec3, seed: u64) -> Vec<Vec3> {
         .collect()
 }
 
+/// Bricks, 8^3 tiles (active or not) and a 128^3 tile over a compact
+/// extent, so the grid has the flat index (the vector path's case).
+fn tiles_with_flat_index() -> Grid<f32> {
+    let mut p = GridParts::new("mixed", 0.25f32, DAffine3::IDENTITY);
+    let mut rng = common::TestRng(11);
+    let mut used = std::collections::HashSet::new();
+    p.tiles.push(Tile {
+        origin: IVec3::new(128, 0, 0),
+        level: 2,
+        value: 3.0,
+        active: true,
+    });
+    for n in 0..700 {
+        let o = IVec3::new(
+            (rng.next_u64() % 16) as i32,
+            (rng.next_u64() % 16) as i32,
+            (rng.next_u64() % 16) as i32,
+        ) * 8;
+        if !used.insert(o) {
+            continue;
+        }
+        if n % 3 == 0 {
+            p.tiles.push(Tile {
+                origin: o,
+                level: 1,
+                value: rng.range(0.0, 4.0) as f32,
+                active: n % 2 == 0,
+            });
+        } else {
+            p.brick_origins.push(o);
+            p.masks.push([u64::MAX; 8]);
+            p.values
+                .extend((0..512).map(|_| rng.range(-0.5, 2.0) as f32));
+        }
+    }
+    let g = Grid::from_parts(p).unwrap();
+    assert!(g.has_flat_index());
+    g
+}
+
 #[test]
 fn batched_lookups_equal_single_lookups() {
-    // A grid with tiles at two levels and the two-level index, a generated
-    // cloud with the flat index, and a vec3s grid.
+    // A grid with tiles at two levels and the two-level index, one with
+    // tiles and the flat index, a generated cloud, and a vec3s grid; the
+    // batched path with and without its vector version.
     for (g, seed) in [
         (common::hand_built(), 1),
+        (tiles_with_flat_index(), 4),
         (generate::cloud(48, 2).unwrap(), 2),
     ] {
         let (lo, hi) = g.stored_bounds().unwrap();
-        check_batch(&g, &batch_points(lo, hi, seed));
+        let pts = batch_points(lo, hi, seed);
+        assert_eq!(g.has_flat_index(), seed != 1);
+        check_batch(&g, &pts);
+        let mut a = vec![0.0; pts.len()];
+        let mut b = vec![0.0; pts.len()];
+        g.sample_index_batch(&pts, &mut a);
+        g.sample_index_batch_scalar(&pts, &mut b);
+        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+            assert_eq!(x.to_bits(), y.to_bits(), "at {} (point {i})", pts[i]);
+        }
     }
     let grids = generate::plume(32, 3).unwrap();
     let vel = grids

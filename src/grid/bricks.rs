@@ -12,7 +12,6 @@
 //! multiple of the alignment, so neither type is padded).
 
 use super::{GridValue, BRICK_VOXELS};
-use rayon::prelude::*;
 use std::ops::{Deref, DerefMut};
 
 #[derive(Clone, Copy)]
@@ -49,21 +48,31 @@ impl<T: GridValue> BrickValues<T> {
         }
     }
 
-    /// `bricks` bricks of zeros, written by all threads: the first touch of
-    /// fresh pages dominates filling a large grid, and spread over the
-    /// threads it costs the loader (which then overwrites the zeros) about
-    /// as much as the parallel copy it feeds.
-    pub fn zeroed(bricks: usize) -> Self {
-        let mut blocks = Vec::new();
-        (0..bricks)
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|_| Block([T::zero(); BRICK_VOXELS]))
-            .collect_into_vec(&mut blocks);
-        Self {
+    /// `bricks` bricks whose `CHANNELS` floats per value `fill` writes
+    /// through a pointer to `len` floats, without zeroing them first: the
+    /// loader's copy from OpenVDB touches the fresh pages once, from all
+    /// threads, instead of after a zeroing pass (5 ms on the 512^3 cloud).
+    ///
+    /// # Safety
+    /// When `fill` returns `Ok`, it must have written all `len` floats.
+    pub(crate) unsafe fn from_fill<E>(
+        bricks: usize,
+        fill: impl FnOnce(*mut f32, usize) -> Result<(), E>,
+    ) -> Result<Self, E> {
+        let mut blocks: Vec<Block<T>> = Vec::with_capacity(bricks);
+        let len = bricks * BRICK_VOXELS * T::CHANNELS;
+        // A value is CHANNELS floats with no padding (`GridValue`), and a
+        // block is its values (NO_PADDING), so the capacity is `len` floats.
+        #[allow(clippy::let_unit_value)]
+        let () = Self::NO_PADDING;
+        fill(blocks.as_mut_ptr().cast::<f32>(), len)?;
+        // SAFETY: `fill` wrote every float of the `bricks` blocks, and any
+        // float bits are valid values.
+        blocks.set_len(bricks);
+        Ok(Self {
             blocks,
             len: bricks * BRICK_VOXELS,
-        }
+        })
     }
 
     pub fn push(&mut self, v: T) {
@@ -159,7 +168,7 @@ mod tests {
         assert_eq!(v.as_ptr() as usize % 2048, 0);
         assert_eq!(v[512 * 2 + 7], (512 * 2 + 7) as f32);
         assert_eq!(v[3 * 512 + 4], (3 * 512 + 4) as f32);
-        let w = BrickValues::<Vec3>::zeroed(2);
+        let w: BrickValues<Vec3> = vec![Vec3::ZERO; 1024].into();
         assert_eq!(w.as_ptr() as usize % 2048, 0);
         assert_eq!(w.len(), 1024);
         assert_eq!(w.capacity_bytes(), 2 * 512 * 12);
@@ -167,7 +176,7 @@ mod tests {
 
     #[test]
     fn floats_view_covers_every_channel() {
-        let mut w = BrickValues::<Vec3>::zeroed(1);
+        let mut w: BrickValues<Vec3> = vec![Vec3::ZERO; 512].into();
         let f = w.as_floats_mut();
         assert_eq!(f.len(), 1536);
         f[3 * 10 + 2] = 7.0;

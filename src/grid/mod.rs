@@ -23,6 +23,8 @@
 //! `tools::BoxSampler`: index (i,j,k) is a voxel centre and world =
 //! `world_from_index` · index.
 
+#[cfg(target_arch = "x86_64")]
+mod batch_avx2;
 mod bricks;
 mod value;
 
@@ -742,6 +744,33 @@ impl<T: GridValue> Grid<T> {
     /// # Panics
     /// If `points` and `out` differ in length.
     pub fn sample_index_batch(&self, points: &[Vec3], out: &mut [T]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        #[cfg(target_arch = "x86_64")]
+        if std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>()
+            && std::arch::is_x86_feature_detected!("avx2")
+        {
+            // SAFETY: T is f32, so this is the same grid type.
+            let g = unsafe { &*(self as *const Self as *const Grid<f32>) };
+            if batch_avx2::usable(g) {
+                // SAFETY: AVX2 is present (checked above); `usable` holds;
+                // `out` is `points.len()` f32 values (one channel).
+                unsafe { batch_avx2::sample(g, points, T::as_floats_mut(out)) };
+                return;
+            }
+        }
+        self.sample_index_batch_scalar(points, out);
+    }
+
+    /// Whether lookups go through the flat index (for tests).
+    #[doc(hidden)]
+    pub fn has_flat_index(&self) -> bool {
+        !self.flat.is_empty()
+    }
+
+    /// [`Self::sample_index_batch`] without the vector path (for tests and
+    /// for processors without AVX2).
+    #[doc(hidden)]
+    pub fn sample_index_batch_scalar(&self, points: &[Vec3], out: &mut [T]) {
         assert_eq!(points.len(), out.len(), "one output per point");
         const N: usize = BATCH_LANES;
         for (pc, oc) in points.chunks(N).zip(out.chunks_mut(N)) {

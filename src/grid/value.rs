@@ -2,10 +2,21 @@
 
 use glam::Vec3;
 
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for f32 {}
+    impl Sealed for glam::Vec3 {}
+}
+
 /// A value stored in a grid: `f32` (density, temperature, flame) or [`Vec3`]
 /// (velocity, colour). `CHANNELS` floats per voxel, laid out as OpenVDB lays
 /// out `float` and `vec3s` leaves, so whole leaves copy without conversion.
-pub trait GridValue: Copy + PartialEq + Send + Sync + std::fmt::Debug + 'static {
+///
+/// Sealed: the loader writes values as raw floats (`BrickValues::from_fill`),
+/// which is sound only for types that are exactly `CHANNELS` floats.
+pub trait GridValue:
+    sealed::Sealed + Copy + PartialEq + Send + Sync + std::fmt::Debug + 'static
+{
     const CHANNELS: usize;
     /// OpenVDB's value type name (`float`, `vec3s`).
     const TYPE_NAME: &'static str;

@@ -92,11 +92,16 @@ pub(crate) mod bridge {
         fn grid_layout(g: &LoadedGrid) -> Result<GridLayout>;
         /// Copies every leaf into buffers Rust allocated from the layout's
         /// leaf count: 3 origin coordinates, 512·channels values and 8 mask
-        /// words per leaf.
-        fn copy_leaves(
+        /// words per leaf. `values` (`values_len` floats) may be
+        /// uninitialised: on success every float has been written.
+        ///
+        /// # Safety
+        /// `values` must be valid for writes of `values_len` floats.
+        unsafe fn copy_leaves(
             g: &LoadedGrid,
             origins: &mut [i32],
-            values: &mut [f32],
+            values: *mut f32,
+            values_len: usize,
             masks: &mut [u64],
         ) -> Result<()>;
         fn write_grids(path: &str, grids: &[GridData], creator: &str) -> Result<()>;

@@ -213,10 +213,16 @@ impl VdbFile {
             ));
         }
         let mut origins = vec![0i32; 3 * n];
-        let mut values = BrickValues::<T>::zeroed(n);
         let mut masks = vec![0u64; 8 * n];
-        bridge::copy_leaves(&loaded, &mut origins, values.as_floats_mut(), &mut masks)
-            .map_err(openvdb_err)?;
+        // SAFETY: `copy_leaves` writes every value float when it succeeds
+        // (the bridge checks the buffer sizes against the leaf count, then
+        // copies each leaf whole), and it may write `len` floats.
+        let values = unsafe {
+            BrickValues::<T>::from_fill(n, |ptr, len| {
+                bridge::copy_leaves(&loaded, &mut origins, ptr, len, &mut masks)
+            })
+        }
+        .map_err(openvdb_err)?;
         drop(loaded);
         let parts = parts_from_layout::<T>(layout, origins, values, masks);
         Grid::from_parts(parts).map_err(|e| Error::grid(&self.path, &d.name, e.to_string()))

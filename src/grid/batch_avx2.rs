@@ -1,0 +1,336 @@
+//! [`Grid::sample_index_batch`] for `f32` grids on processors with AVX2:
+//! eight points per vector lane set.
+//!
+//! Why: in a grid larger than the caches, the scalar batch hides memory
+//! latency, and then its own instruction count limits it (about 45 M
+//! lookups/s on one core for a grid in cache). Eight lanes share every
+//! instruction of the floor, the index walk and the interpolation, and the
+//! corners come in with AVX2 gathers, so the memory system is the limit
+//! again (see `benches/grid.rs`).
+//!
+//! The arithmetic is the scalar path's, operation by operation (floor,
+//! `p - floor(p)`, then `a + (b - a) * w` in the same order, no fused
+//! multiply-add), so the results are the same bits. Lanes whose corners
+//! span more than two blocks (22 of the 512 places in a block) are redone
+//! by the scalar path.
+
+use super::{Grid, CONST_BIT, COORD_LIMIT, EMPTY};
+use glam::Vec3;
+use std::arch::x86_64::*;
+
+/// Whether this grid can take the vector path: it has the flat index, and
+/// every gather index (a brick's values, a flat-index entry) fits an i32.
+pub(super) fn usable(g: &Grid<f32>) -> bool {
+    !g.flat.is_empty()
+        && g.values.len() < i32::MAX as usize
+        && g.flat.len() < i32::MAX as usize
+        && g.constants.len() < i32::MAX as usize
+}
+
+/// Eight points after the first pass: cell coordinates, weights, which
+/// lanes are in range, and the slot codes of the cell's block and of the
+/// block across its face (`sn`; the block itself where no face is crossed).
+#[derive(Clone, Copy)]
+struct Lanes {
+    i: [__m256i; 3],
+    w: [__m256; 3],
+    ok: __m256,
+    s: __m256i,
+    sn: __m256i,
+}
+
+/// Loop-invariant vectors of a grid.
+struct Consts {
+    origin: [__m256i; 3],
+    dims: [__m256i; 3],
+    dx: __m256i,
+    dxy: __m256i,
+}
+
+/// Lane sets between the first and the second pass of a point.
+const AHEAD: usize = 8;
+
+/// Samples `points` into `out` (equal lengths; `usable(g)` holds).
+///
+/// # Safety
+/// The processor must support AVX2.
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
+    debug_assert!(usable(g) && points.len() == out.len());
+    let c = Consts {
+        origin: [g.flat_origin.x, g.flat_origin.y, g.flat_origin.z].map(|o| _mm256_set1_epi32(o)),
+        dims: [g.flat_dims.x, g.flat_dims.y, g.flat_dims.z].map(|d| _mm256_set1_epi32(d)),
+        dx: _mm256_set1_epi32(g.flat_dims.x),
+        dxy: _mm256_set1_epi32(g.flat_dims.x * g.flat_dims.y),
+    };
+    // A software pipeline: the first pass runs AHEAD lane sets before the
+    // second, so each set's corners were asked for that long before.
+    let sets = points.len() / 8;
+    let zero = Lanes {
+        i: [_mm256_setzero_si256(); 3],
+        w: [_mm256_setzero_ps(); 3],
+        ok: _mm256_setzero_ps(),
+        s: _mm256_setzero_si256(),
+        sn: _mm256_setzero_si256(),
+    };
+    let mut ring = [zero; AHEAD];
+    // One call site each, so both passes inline into this loop.
+    for j in 0..sets + AHEAD {
+        let r = &mut ring[j % AHEAD];
+        if j >= AHEAD {
+            let k = 8 * (j - AHEAD);
+            second_pass(g, r, &points[k..], &mut out[k..]);
+        }
+        if j < sets {
+            *r = first_pass(g, &c, &points[8 * j..]);
+        }
+    }
+    let k = 8 * sets;
+    for j in k..points.len() {
+        out[j] = g.sample_index(points[j]);
+    }
+}
+
+/// Floors eight points, finds their blocks' slot codes, and prefetches the
+/// cache lines of their corners.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
+    debug_assert!(points.len() >= 8);
+    let seven = _mm256_set1_epi32(7);
+    let empty = _mm256_set1_epi32(EMPTY as i32);
+    // SAFETY: 24 floats from here (8 points); the flat-index gathers are
+    // masked to entries inside `flat_dims`.
+    let p = points.as_ptr() as *const f32;
+    let pv = load_xyz(p);
+    // Range check as in `floor_split`: NaN and |p| >= 2^30 read the
+    // background; such lanes continue at 0 so every address is valid.
+    let abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(i32::MAX));
+    let limit = _mm256_set1_ps(COORD_LIMIT);
+    let ok = pv
+        .iter()
+        .map(|&v| _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_and_ps(v, abs_mask), limit))
+        .fold(_mm256_castsi256_ps(_mm256_set1_epi32(-1)), |a, b| {
+            _mm256_and_ps(a, b)
+        });
+    let pv = pv.map(|v| _mm256_and_ps(v, ok));
+    // `p - (float)floor(p)` as the scalar path computes it (the same bits,
+    // down to the sign of a zero weight at p = -0).
+    let i = pv.map(|v| _mm256_cvttps_epi32(_mm256_floor_ps(v)));
+    let w = [0, 1, 2].map(|a| _mm256_sub_ps(pv[a], _mm256_cvtepi32_ps(i[a])));
+    // Block coordinates in the flat index, and the block across the face
+    // where the cell's last voxel is 7 (edge lanes are -1: t + 1 there).
+    let edge = i.map(|v| _mm256_cmpeq_epi32(_mm256_and_si256(v, seven), seven));
+    let t = [0, 1, 2].map(|a| _mm256_sub_epi32(_mm256_srai_epi32::<3>(i[a]), c.origin[a]));
+    let tn = [0, 1, 2].map(|a| _mm256_sub_epi32(t[a], edge[a]));
+    let lin = |t: [__m256i; 3]| {
+        _mm256_add_epi32(
+            _mm256_add_epi32(t[0], _mm256_mullo_epi32(t[1], c.dx)),
+            _mm256_mullo_epi32(t[2], c.dxy),
+        )
+    };
+    let flat = g.flat.as_ptr() as *const i32;
+    let s = _mm256_mask_i32gather_epi32::<4>(empty, flat, lin(t), inside_lanes(t, c.dims));
+    let sn = _mm256_mask_i32gather_epi32::<4>(empty, flat, lin(tn), inside_lanes(tn, c.dims));
+    // Prefetch: the corners' lines in both blocks (brick lanes only).
+    let v = voxel_offsets(i);
+    let vn = _mm256_andnot_si256(
+        _mm256_or_si256(
+            _mm256_or_si256(
+                _mm256_and_si256(edge[0], _mm256_set1_epi32(0o700)),
+                _mm256_and_si256(edge[1], _mm256_set1_epi32(0o070)),
+            ),
+            _mm256_and_si256(edge[2], _mm256_set1_epi32(0o007)),
+        ),
+        v,
+    );
+    let at = |s: __m256i, v: __m256i| {
+        _mm256_andnot_si256(
+            is_const(s),
+            _mm256_add_epi32(_mm256_slli_epi32::<9>(index(s)), v),
+        )
+    };
+    let mut offsets = [0i32; 16];
+    _mm256_storeu_si256(offsets.as_mut_ptr() as *mut __m256i, at(s, v));
+    _mm256_storeu_si256(offsets.as_mut_ptr().add(8) as *mut __m256i, at(sn, vn));
+    let values = g.values.as_ptr();
+    let prefetch = |o: i32| {
+        let q = values.wrapping_add(o as usize);
+        for d in [0usize, 9, 64, 73] {
+            // SAFETY: a prefetch is a hint and accesses no memory in the
+            // language's sense (the address is formed with wrapping
+            // arithmetic).
+            _mm_prefetch(q.wrapping_add(d) as *const i8, _MM_HINT_T0);
+        }
+    };
+    for &o in &offsets[..8] {
+        prefetch(o);
+    }
+    // The block across a face only where a face is crossed (a third of
+    // the lanes; elsewhere it is the cell's own block).
+    let crossing = _mm256_or_si256(_mm256_or_si256(edge[0], edge[1]), edge[2]);
+    let mut bits = _mm256_movemask_ps(_mm256_castsi256_ps(crossing)) as u32;
+    while bits != 0 {
+        prefetch(offsets[8 + bits.trailing_zeros() as usize]);
+        bits &= bits - 1;
+    }
+    Lanes { i, w, ok, s, sn }
+}
+
+/// Gathers the eight corners of each lane and interpolates; lanes whose
+/// corners span more than two blocks are redone by the scalar path.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, points: &[Vec3], out: &mut [f32]) {
+    debug_assert!(points.len() >= 8 && out.len() >= 8);
+    let seven = _mm256_set1_epi32(7);
+    let edge =
+        l.i.map(|v| _mm256_cmpeq_epi32(_mm256_and_si256(v, seven), seven));
+    let v = voxel_offsets(l.i);
+    // SAFETY: the constant gathers read the constant indices of slot codes
+    // with CONST_BIT; the value gathers read, for the other lanes, offsets
+    // below 512 of the bricks their slot codes name (each corner's offset
+    // stays inside its block, as in `Grid::fetch_general`).
+    let constants = g.constants.as_ptr();
+    let const_value = |s: __m256i| {
+        _mm256_mask_i32gather_ps::<4>(
+            _mm256_setzero_ps(),
+            constants,
+            index(s),
+            _mm256_castsi256_ps(is_const(s)),
+        )
+    };
+    let (cs, cn) = (const_value(l.s), const_value(l.sn));
+    let (bs, bn) = (
+        _mm256_slli_epi32::<9>(index(l.s)),
+        _mm256_slli_epi32::<9>(index(l.sn)),
+    );
+    // Per axis, the step to the high corner: +1 voxel, or back 7 into the
+    // next block where the cell crosses the face.
+    let step = |a: usize, shift: i32| {
+        _mm256_blendv_epi8(
+            _mm256_set1_epi32(1 << shift),
+            _mm256_set1_epi32(-(7 << shift)),
+            edge[a],
+        )
+    };
+    let st = [step(0, 6), step(1, 3), step(2, 0)];
+    let values = g.values.as_ptr();
+    let corner = |cx: bool, cy: bool, cz: bool| {
+        let mut off = v;
+        let mut cross = _mm256_setzero_si256();
+        for (a, on) in [cx, cy, cz].into_iter().enumerate() {
+            if on {
+                off = _mm256_add_epi32(off, st[a]);
+                cross = _mm256_or_si256(cross, edge[a]);
+            }
+        }
+        let base = _mm256_blendv_epi8(bs, bn, cross);
+        let konst = _mm256_blendv_epi8(is_const(l.s), is_const(l.sn), cross);
+        let cval = _mm256_blendv_ps(cs, cn, _mm256_castsi256_ps(cross));
+        _mm256_mask_i32gather_ps::<4>(
+            cval,
+            values,
+            _mm256_add_epi32(base, off),
+            _mm256_castsi256_ps(_mm256_xor_si256(konst, _mm256_set1_epi32(-1))),
+        )
+    };
+    let d = [
+        corner(false, false, false),
+        corner(false, false, true),
+        corner(false, true, false),
+        corner(false, true, true),
+        corner(true, false, false),
+        corner(true, false, true),
+        corner(true, true, false),
+        corner(true, true, true),
+    ];
+    let w = l.w;
+    let lerp =
+        |a: __m256, b: __m256, w: __m256| _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), w));
+    let y0 = lerp(lerp(d[0], d[1], w[2]), lerp(d[2], d[3], w[2]), w[1]);
+    let y1 = lerp(lerp(d[4], d[5], w[2]), lerp(d[6], d[7], w[2]), w[1]);
+    let r = _mm256_blendv_ps(_mm256_set1_ps(g.background), lerp(y0, y1, w[0]), l.ok);
+    _mm256_storeu_ps(out.as_mut_ptr(), r);
+    // Lanes across an edge or a corner (two or three axes at 7).
+    let n_edges = _mm256_sub_epi32(
+        _mm256_setzero_si256(),
+        _mm256_add_epi32(_mm256_add_epi32(edge[0], edge[1]), edge[2]),
+    );
+    let multi = _mm256_and_si256(
+        _mm256_cmpgt_epi32(n_edges, _mm256_set1_epi32(1)),
+        _mm256_castps_si256(l.ok),
+    );
+    let mut bits = _mm256_movemask_ps(_mm256_castsi256_ps(multi)) as u32;
+    while bits != 0 {
+        let j = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        out[j] = g.sample_index(points[j]);
+    }
+}
+
+/// Eight points of three floats (x y z x y z ...) as x, y and z vectors.
+/// Plain loads and shuffles rather than three strided gathers: a gather
+/// does not train the hardware prefetcher, so a long array of points read
+/// by gathers missed the cache at every line.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn load_xyz(p: *const f32) -> [__m256; 3] {
+    // SAFETY: the caller passes 24 readable floats.
+    let half = |k: usize| _mm_loadu_ps(p.add(k));
+    // Low 128-bit halves hold points 0-3, high halves points 4-7.
+    let m03 = _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(half(0)), half(12));
+    let m14 = _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(half(4)), half(16));
+    let m25 = _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(half(8)), half(20));
+    // m03 = x0 y0 z0 x1, m14 = y1 z1 x2 y2, m25 = z2 x3 y3 z3 (per half).
+    let xy = _mm256_shuffle_ps::<0b10_01_11_10>(m14, m25); // x2 y2 x3 y3
+    let yz = _mm256_shuffle_ps::<0b01_00_10_01>(m03, m14); // y0 z0 y1 z1
+    [
+        _mm256_shuffle_ps::<0b10_00_11_00>(m03, xy), // x0 x1 x2 x3
+        _mm256_shuffle_ps::<0b11_01_10_00>(yz, xy),  // y0 y1 y2 y3
+        _mm256_shuffle_ps::<0b11_00_11_01>(yz, m25), // z0 z1 z2 z3
+    ]
+}
+
+/// `(x&7)<<6 | (y&7)<<3 | (z&7)` per lane.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn voxel_offsets(i: [__m256i; 3]) -> __m256i {
+    let seven = _mm256_set1_epi32(7);
+    let low = i.map(|v| _mm256_and_si256(v, seven));
+    _mm256_or_si256(
+        _mm256_or_si256(
+            _mm256_slli_epi32::<6>(low[0]),
+            _mm256_slli_epi32::<3>(low[1]),
+        ),
+        low[2],
+    )
+}
+
+/// All-ones lanes where the slot code is a constant.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn is_const(s: __m256i) -> __m256i {
+    _mm256_srai_epi32::<31>(s)
+}
+
+/// The brick or constant index of a slot code.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn index(s: __m256i) -> __m256i {
+    _mm256_and_si256(s, _mm256_set1_epi32(!CONST_BIT as i32))
+}
+
+/// Lanes where `t` is a cell of a dense array of `dims` cells.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn inside_lanes(t: [__m256i; 3], dims: [__m256i; 3]) -> __m256i {
+    let zero = _mm256_setzero_si256();
+    let mut m = _mm256_set1_epi32(-1);
+    for a in 0..3 {
+        let below = _mm256_cmpgt_epi32(dims[a], t[a]);
+        let negative = _mm256_cmpgt_epi32(zero, t[a]);
+        m = _mm256_and_si256(m, _mm256_andnot_si256(negative, below));
+    }
+    m
+}
