@@ -19,6 +19,13 @@
 //! so the per-sample cost is O(1). Per-brick min/max ranges serve the
 //! majorants of the renderer (`range_in_box`).
 //!
+//! Lookups come one at a time (`sample_index`, what tracking along a ray
+//! does) or in batches of independent points (`sample_index_batch`), which
+//! prefetch the corners ahead of the interpolation and, for `f32` grids on
+//! processors with AVX2, run eight points per instruction
+//! (`batch_avx2`): in grids larger than the caches that is 2-4 times the
+//! single lookups' rate.
+//!
 //! Sampling is trilinear between voxel centres, exactly as OpenVDB's
 //! `tools::BoxSampler`: index (i,j,k) is a voxel centre and world =
 //! `world_from_index` · index.
@@ -217,9 +224,9 @@ pub struct Grid<T: GridValue> {
     all_finite: bool,
 }
 
-/// Points per pass of [`Grid::sample_index_batch`]: enough lookups in
-/// flight to cover memory latency, few enough that the first pass's cache
-/// lines are still there for the second.
+/// Points per pass of the scalar [`Grid::sample_index_batch`]: enough
+/// lookups in flight to cover memory latency, few enough that the first
+/// pass's cache lines are still there for the second.
 pub const BATCH_LANES: usize = 16;
 
 /// Whether `t` is a cell of a dense array of `dims` cells (one unsigned
@@ -732,14 +739,16 @@ impl<T: GridValue> Grid<T> {
     ///
     /// Why a batch: in a grid larger than the caches each lookup waits on
     /// memory for its values, and one point at a time the processor
-    /// overlaps only the few lookups its reorder window holds. Here points
-    /// go [`BATCH_LANES`] at a time through two passes: the first finds
-    /// each point's blocks and prefetches the cache lines of its corners,
-    /// the second interpolates once they have arrived. On the generated
-    /// 512^3 cloud this about doubles random lookups per second; on grids
-    /// in cache it is no faster than single lookups (see `benches/grid.rs`).
-    /// It is meant for callers with many independent points at once, such
-    /// as photons or rays traced in lockstep.
+    /// overlaps only the few lookups its reorder window holds. A batch
+    /// finds the blocks of points well ahead of interpolating them and
+    /// prefetches their corners' cache lines in between. For `f32` grids
+    /// with the flat index on processors with AVX2 this runs eight points
+    /// per instruction (`batch_avx2`); otherwise [`BATCH_LANES`] points at
+    /// a time through two scalar passes. Measured with `benches/grid.rs`
+    /// (one core, random points): 31-35 M/s on the generated 512^3 cloud
+    /// against 10-12 one at a time, 61 against 20-31 on pig.vdb, 76
+    /// against 61 in cache. Meant for callers with many independent points
+    /// at once, such as photons or rays traced in lockstep.
     ///
     /// # Panics
     /// If `points` and `out` differ in length.
