@@ -21,11 +21,7 @@ fn points<T: GridValue>(g: &Grid<T>, seed: u64) -> Vec<DVec3> {
     let mut rng = common::TestRng(seed);
     (0..POINTS)
         .map(|i| {
-            let mut p = DVec3::new(
-                rng.range(lo.x, hi.x),
-                rng.range(lo.y, hi.y),
-                rng.range(lo.z, hi.z),
-            );
+            let mut p = rng.point(lo, hi);
             if i % 4 == 0 {
                 p = p.round();
             } else if i % 4 == 1 {
@@ -142,11 +138,7 @@ fn single_precision_index_path_agrees() {
     let (lo, hi) = g.stored_bounds().unwrap();
     let mut rng = common::TestRng(3);
     for _ in 0..POINTS {
-        let p = DVec3::new(
-            rng.range(lo.x as f64, hi.x as f64),
-            rng.range(lo.y as f64, hi.y as f64),
-            rng.range(lo.z as f64, hi.z as f64),
-        );
+        let p = rng.point(lo.as_dvec3(), hi.as_dvec3());
         let a = g.sample_index(p.as_vec3());
         let b = g.sample_index_f64(p);
         assert!((a - b).abs() < 2e-5, "at {p}: {a} vs {b}");
@@ -197,11 +189,7 @@ fn batch_points(lo: IVec3, hi: IVec3, seed: u64) -> Vec<Vec3> {
     let mut rng = common::TestRng(seed);
     (0..20_011)
         .map(|i| {
-            let mut p = DVec3::new(
-                rng.range(lo.x, hi.x),
-                rng.range(lo.y, hi.y),
-                rng.range(lo.z, hi.z),
-            );
+            let mut p = rng.point(lo, hi);
             if i % 2 == 1 {
                 let axes = rng.next_u64();
                 for a in 0..3 {

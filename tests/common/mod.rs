@@ -24,6 +24,14 @@ impl TestRng {
     pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.f64()
     }
+    /// A uniform point in the box `[lo, hi)`.
+    pub fn point(&mut self, lo: DVec3, hi: DVec3) -> DVec3 {
+        DVec3::new(
+            self.range(lo.x, hi.x),
+            self.range(lo.y, hi.y),
+            self.range(lo.z, hi.z),
+        )
+    }
 }
 
 /// The real-data folder from `VDBPHOTON_REAL_DATA`. `None` (with a note)
