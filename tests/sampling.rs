@@ -269,6 +269,36 @@ fn batched_lookups_equal_single_lookups() {
             assert_eq!(x.to_bits(), y.to_bits(), "at {} (point {i})", pts[i]);
         }
     }
+    // Non-finite values: results agree, NaN only as NaN (see the method's
+    // documentation).
+    let mut g = tiles_with_flat_index().to_parts();
+    for (k, v) in g.values.iter_mut().enumerate() {
+        match k % 37 {
+            0 => *v = f32::NAN,
+            1 => *v = f32::INFINITY,
+            2 => *v = f32::NEG_INFINITY,
+            _ => {}
+        }
+    }
+    let g = Grid::from_parts(g).unwrap();
+    let (lo, hi) = g.stored_bounds().unwrap();
+    let pts = batch_points(lo, hi, 5);
+    let mut out = vec![0.0; pts.len()];
+    g.sample_index_batch(&pts, &mut out);
+    let mut nan = 0;
+    for (p, v) in pts.iter().zip(&out) {
+        let want = g.sample_index(*p);
+        if want.is_nan() {
+            nan += 1;
+            assert!(v.is_nan(), "at {p}: {v} where {want} was expected");
+        } else {
+            assert_eq!(v.to_bits(), want.to_bits(), "at {p}");
+        }
+    }
+    assert!(
+        nan > 100,
+        "only {nan} NaN results: the case is not exercised"
+    );
     let grids = generate::plume(32, 3).unwrap();
     let vel = grids
         .iter()

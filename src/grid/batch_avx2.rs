@@ -58,10 +58,11 @@ struct Consts {
 /// Lane sets between the first and the second pass of a point.
 const AHEAD: usize = 8;
 
-/// Samples `points` into `out` (equal lengths; `usable(g)` holds).
+/// Samples `points` into `out`.
 ///
 /// # Safety
-/// The processor must support AVX2.
+/// The processor must support AVX2, `usable(g)` must hold, and `out` must
+/// be as long as `points` (its stores are unchecked).
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
     debug_assert!(usable(g) && points.len() == out.len());

@@ -112,7 +112,12 @@ impl<T: GridValue> BrickValues<T> {
 /// on the 512^3 cloud ran 5-16 % faster (`benches/grid.rs`). Advice only:
 /// errors are ignored, and other systems skip it.
 fn advise_huge_pages(ptr: *mut u8, bytes: usize) {
-    #[cfg(target_os = "linux")]
+    // MADV_HUGEPAGE is 14 in Linux's generic constants, which x86-64 and
+    // AArch64 use (some other architectures number it differently).
+    #[cfg(all(
+        target_os = "linux",
+        any(target_arch = "x86_64", target_arch = "aarch64")
+    ))]
     {
         const HUGE: usize = 1 << 21;
         const MADV_HUGEPAGE: i32 = 14;
@@ -128,7 +133,10 @@ fn advise_huge_pages(ptr: *mut u8, bytes: usize) {
             unsafe { madvise(start as *mut _, end - start, MADV_HUGEPAGE) };
         }
     }
-    #[cfg(not(target_os = "linux"))]
+    #[cfg(not(all(
+        target_os = "linux",
+        any(target_arch = "x86_64", target_arch = "aarch64")
+    )))]
     let _ = (ptr, bytes);
 }
 

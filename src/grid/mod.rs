@@ -735,7 +735,10 @@ impl<T: GridValue> Grid<T> {
     }
 
     /// [`Self::sample_index`] at many independent points: `out[i]` is
-    /// `sample_index(points[i])`, bit for bit.
+    /// `sample_index(points[i])`, bit for bit (where the grid stores NaN
+    /// values and a lookup meets two different NaNs, both results are NaN
+    /// but may carry different payloads: x86 keeps the first operand's NaN
+    /// and the compiler may order an addition's operands either way).
     ///
     /// Why a batch: in a grid larger than the caches each lookup waits on
     /// memory for its values, and one point at a time the processor
