@@ -145,8 +145,9 @@ fn single_precision_index_path_agrees() {
     }
 }
 
-/// `sample_index_batch` returns `sample_index` bit for bit at `pts`, in
-/// batches of every length from 0 to 40 and in one batch of all of them.
+/// `sample_index_batch`, and its scalar path alone, return `sample_index`
+/// bit for bit at `pts`, in batches of every length from 0 to 40 and in one
+/// batch of all of them.
 fn check_batch<T: GridValue>(g: &Grid<T>, pts: &[Vec3]) {
     let bits = |v: T| {
         T::to_flat(&[v])
@@ -155,27 +156,34 @@ fn check_batch<T: GridValue>(g: &Grid<T>, pts: &[Vec3]) {
             .collect::<Vec<_>>()
     };
     let single: Vec<T> = pts.iter().map(|p| g.sample_index(*p)).collect();
-    let mut out = vec![T::zero(); pts.len()];
-    g.sample_index_batch(pts, &mut out);
-    for (i, p) in pts.iter().enumerate() {
-        assert_eq!(bits(out[i]), bits(single[i]), "at {p} (point {i})");
-    }
-    let mut start = 0;
-    for len in (0..=40).cycle() {
-        let end = (start + len).min(pts.len());
-        let mut out = vec![T::zero(); end - start];
-        g.sample_index_batch(&pts[start..end], &mut out);
-        for (k, v) in out.iter().enumerate() {
-            assert_eq!(
-                bits(*v),
-                bits(single[start + k]),
-                "batch of {len}, point {}",
-                start + k
-            );
+    type Batch<T> = fn(&Grid<T>, &[Vec3], &mut [T]);
+    let paths: [(&str, Batch<T>); 2] = [
+        ("sample_index_batch", Grid::sample_index_batch),
+        ("sample_index_batch_scalar", Grid::sample_index_batch_scalar),
+    ];
+    for (name, batch) in paths {
+        let mut out = vec![T::zero(); pts.len()];
+        batch(g, pts, &mut out);
+        for (i, p) in pts.iter().enumerate() {
+            assert_eq!(bits(out[i]), bits(single[i]), "{name} at {p} (point {i})");
         }
-        start = end;
-        if start == pts.len() {
-            break;
+        let mut start = 0;
+        for len in (0..=40).cycle() {
+            let end = (start + len).min(pts.len());
+            let mut out = vec![T::zero(); end - start];
+            batch(g, &pts[start..end], &mut out);
+            for (k, v) in out.iter().enumerate() {
+                assert_eq!(
+                    bits(*v),
+                    bits(single[start + k]),
+                    "{name}, batch of {len}, point {}",
+                    start + k
+                );
+            }
+            start = end;
+            if start == pts.len() {
+                break;
+            }
         }
     }
 }
@@ -251,7 +259,7 @@ fn tiles_with_flat_index() -> Grid<f32> {
 fn batched_lookups_equal_single_lookups() {
     // A grid with tiles at two levels and the two-level index, one with
     // tiles and the flat index, a generated cloud, and a vec3s grid; the
-    // batched path with and without its vector version.
+    // batched path with and without its vector version (`check_batch`).
     for (g, seed) in [
         (common::hand_built(), 1),
         (tiles_with_flat_index(), 4),
@@ -261,13 +269,6 @@ fn batched_lookups_equal_single_lookups() {
         let pts = batch_points(lo, hi, seed);
         assert_eq!(g.has_flat_index(), seed != 1);
         check_batch(&g, &pts);
-        let mut a = vec![0.0; pts.len()];
-        let mut b = vec![0.0; pts.len()];
-        g.sample_index_batch(&pts, &mut a);
-        g.sample_index_batch_scalar(&pts, &mut b);
-        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
-            assert_eq!(x.to_bits(), y.to_bits(), "at {} (point {i})", pts[i]);
-        }
     }
     // Non-finite values: results agree, NaN only as NaN (see the method's
     // documentation).

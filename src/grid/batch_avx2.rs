@@ -22,7 +22,7 @@
 //! call, 8 M lookups/s), and `#[inline(always)]` cannot be combined with
 //! `#[target_feature]`.
 
-use super::{Grid, CONST_BIT, COORD_LIMIT, EMPTY};
+use super::{prefetch_stencil, Grid, CONST_BIT, COORD_LIMIT, EMPTY};
 use glam::Vec3;
 use std::arch::x86_64::*;
 
@@ -163,15 +163,7 @@ unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
     _mm256_storeu_si256(offsets.as_mut_ptr() as *mut __m256i, at(s, v));
     _mm256_storeu_si256(offsets.as_mut_ptr().add(8) as *mut __m256i, at(sn, vn));
     let values = g.values.as_ptr();
-    let prefetch = |o: i32| {
-        let q = values.wrapping_add(o as usize);
-        for d in [0usize, 9, 64, 73] {
-            // SAFETY: a prefetch is a hint and accesses no memory in the
-            // language's sense (the address is formed with wrapping
-            // arithmetic).
-            _mm_prefetch(q.wrapping_add(d) as *const i8, _MM_HINT_T0);
-        }
-    };
+    let prefetch = |o: i32| prefetch_stencil(values.wrapping_add(o as usize));
     for &o in &offsets[..8] {
         prefetch(o);
     }

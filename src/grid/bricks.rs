@@ -97,11 +97,6 @@ impl<T: GridValue> BrickValues<T> {
     pub fn capacity_bytes(&self) -> usize {
         self.blocks.capacity() * std::mem::size_of::<Block<T>>()
     }
-
-    /// The values as `CHANNELS` floats each, for the bulk copy from OpenVDB.
-    pub fn as_floats_mut(&mut self) -> &mut [f32] {
-        T::as_floats_mut(self)
-    }
 }
 
 /// Asks Linux to back the whole 2 MiB pages inside `[ptr, ptr + bytes)`
@@ -217,7 +212,7 @@ mod tests {
     #[test]
     fn floats_view_covers_every_channel() {
         let mut w: BrickValues<Vec3> = vec![Vec3::ZERO; 512].into();
-        let f = w.as_floats_mut();
+        let f = Vec3::as_floats_mut(&mut w);
         assert_eq!(f.len(), 1536);
         f[3 * 10 + 2] = 7.0;
         assert_eq!(w[10], Vec3::new(0.0, 0.0, 7.0));

@@ -242,6 +242,37 @@ fn linear_index(t: IVec3, dims: IVec3) -> usize {
     (t.z as usize * dims.y as usize + t.y as usize) * dims.x as usize + t.x as usize
 }
 
+/// The axes on which the cell at `i0` (corners `i0` to `i0 + 1`) crosses
+/// a face of its 8^3 block: those where `i0` is the block's last voxel.
+#[inline(always)]
+fn block_edge(i0: IVec3) -> BVec3 {
+    (i0 & 7).cmpeq(IVec3::splat(7))
+}
+
+/// The voxel one step from `i0` along the crossing axes `edge`: for a cell
+/// across one face, a voxel of the block beyond it.
+#[inline(always)]
+fn across(i0: IVec3, edge: BVec3) -> IVec3 {
+    i0 + IVec3::select(edge, IVec3::ONE, IVec3::ZERO)
+}
+
+/// Asks for the cache lines of a lookup's corners in an 8^3 block, given a
+/// pointer to its first corner: the two x planes (+0, +64) and the next
+/// row in each (+9, +73), which starts a new line for odd y. A hint only.
+#[inline(always)]
+fn prefetch_stencil<T>(first: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    for o in [0usize, 9, 64, 73] {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch is a hint; it does not access memory in the
+        // language's sense, so any address is sound (the pointer is formed
+        // with wrapping arithmetic).
+        unsafe { _mm_prefetch(first.wrapping_add(o) as *const i8, _MM_HINT_T0) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = first;
+}
+
 #[inline(always)]
 fn voxel_offset(ijk: IVec3) -> usize {
     (((ijk.x & 7) << 6) | ((ijk.y & 7) << 3) | (ijk.z & 7)) as usize
@@ -652,14 +683,20 @@ impl<T: GridValue> Grid<T> {
     /// ([`Self::block_base`]); the rest take the general loop.
     #[inline(always)]
     fn fetch8(&self, i0: IVec3) -> [T; 8] {
-        let s = self.slot(i0);
-        let edge = (i0 & 7).cmpeq(IVec3::splat(7));
+        self.fetch8_from(i0, self.slot(i0), |next| self.slot(next))
+    }
+
+    /// [`Self::fetch8`] given the slot `s` of the block of `i0`;
+    /// `slot_across(next)` gives the slot of the block across the one face
+    /// a cell may cross (`next` is a voxel of it), asked only then.
+    #[inline(always)]
+    fn fetch8_from(&self, i0: IVec3, s: u32, slot_across: impl FnOnce(IVec3) -> u32) -> [T; 8] {
+        let edge = block_edge(i0);
         if !edge.any() {
             return self.fetch_one_block(i0, s);
         }
         if edge.bitmask().count_ones() == 1 {
-            let next = i0 + IVec3::select(edge, IVec3::ONE, IVec3::ZERO);
-            return self.fetch_two_blocks(i0, edge, s, self.slot(next));
+            return self.fetch_two_blocks(i0, edge, s, slot_across(across(i0, edge)));
         }
         self.fetch_general(i0, edge, s)
     }
@@ -679,9 +716,8 @@ impl<T: GridValue> Grid<T> {
     /// four high ones at the start of the next (slot `sn`).
     #[inline(always)]
     fn fetch_two_blocks(&self, i0: IVec3, edge: BVec3, s: u32, sn: u32) -> [T; 8] {
-        let unit = IVec3::select(edge, IVec3::ONE, IVec3::ZERO);
         let (bl, ml) = self.block_base(s, voxel_offset(i0));
-        let (bh, mh) = self.block_base(sn, voxel_offset(i0 + unit));
+        let (bh, mh) = self.block_base(sn, voxel_offset(across(i0, edge)));
         // SAFETY: as in the one-block case; in each block the offsets stay
         // on the axes that do not cross, where the coordinate is below 7.
         let l = |o: usize| unsafe { *bl.add(o & ml) };
@@ -796,10 +832,12 @@ impl<T: GridValue> Grid<T> {
                 };
                 let s = self.slot(i0);
                 self.prefetch_corners(s, voxel_offset(i0));
-                let edge = (i0 & 7).cmpeq(IVec3::splat(7));
+                let edge = block_edge(i0);
                 let mut sn = s;
+                // `any` first: it is cheaper than a popcount without the
+                // POPCNT instruction, and two thirds of cells cross nothing.
                 if edge.any() && edge.bitmask().count_ones() == 1 {
-                    let next = i0 + IVec3::select(edge, IVec3::ONE, IVec3::ZERO);
+                    let next = across(i0, edge);
                     sn = self.slot(next);
                     self.prefetch_corners(sn, voxel_offset(next));
                 }
@@ -810,39 +848,17 @@ impl<T: GridValue> Grid<T> {
                     *o = self.background;
                     continue;
                 }
-                let (i0, (s, sn)) = (i0s[j], slots[j]);
-                let edge = (i0 & 7).cmpeq(IVec3::splat(7));
-                let d = if !edge.any() {
-                    self.fetch_one_block(i0, s)
-                } else if edge.bitmask().count_ones() == 1 {
-                    self.fetch_two_blocks(i0, edge, s, sn)
-                } else {
-                    self.fetch_general(i0, edge, s)
-                };
-                *o = Self::interpolate(d, ws[j]);
+                let (s, sn) = slots[j];
+                *o = Self::interpolate(self.fetch8_from(i0s[j], s, |_| sn), ws[j]);
             }
         }
     }
 
     /// Asks for the cache lines holding the corners of a lookup at voxel
-    /// offset `v` of the block with slot code `s` (its two x planes, and
-    /// the next row in each, which may start a new line). A hint only: it
-    /// reads nothing and cannot fault.
+    /// offset `v` of the block with slot code `s` ([`prefetch_stencil`]).
     #[inline(always)]
     fn prefetch_corners(&self, s: u32, v: usize) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let (base, _) = self.block_base(s, v);
-            for o in [0usize, 9, 64, 73] {
-                // SAFETY: a prefetch is a hint; it does not access memory in
-                // the language's sense, so any address is sound (the
-                // pointer is formed with wrapping arithmetic).
-                unsafe { _mm_prefetch(base.wrapping_add(o) as *const i8, _MM_HINT_T0) };
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = (s, v);
+        prefetch_stencil(self.block_base(s, v).0);
     }
 
     /// Trilinear sample at a point in index space, in double precision,
