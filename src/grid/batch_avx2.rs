@@ -4,35 +4,42 @@
 //! Why: once the scalar batch hides memory latency, its own instruction
 //! count limits it (about 45 M lookups/s on one core for a grid in cache).
 //! Eight lanes share every instruction of the floor, the index walk and the
-//! interpolation, and the corners come in by AVX2 gathers: 76 M/s in cache,
-//! and 31-35 M/s on the 512^3 cloud against 23-25 for the scalar batch
-//! (`benches/grid.rs`, where the figures are printed). A software pipeline
-//! runs the first pass (floor, block slots, prefetches) [`AHEAD`] lane sets
-//! before the second (gathers, interpolation).
+//! interpolation, and the corners come in by AVX2 gathers: about 90 M/s in
+//! cache, 70-74 on pig.vdb and 48-51 on the 512^3 cloud (`benches/grid.rs`,
+//! where the figures are printed; the VM's slow phases give less). A
+//! software pipeline runs the first pass (floor, block slots, prefetches)
+//! [`AHEAD`] lane sets before the second (gathers, interpolation).
 //!
 //! The arithmetic is the scalar path's, operation by operation (floor,
 //! `p - (float)floor(p)`, then `a + (b - a) * w` in the same order, no
 //! fused multiply-add), so the results are the same bits
-//! (`tests/sampling.rs` checks every lane against `sample_index`). Lanes
-//! whose corners span more than two blocks (22 of the 512 places in a
-//! block) are redone by the scalar path.
+//! (`tests/sampling.rs` checks every lane against `sample_index`).
+//!
+//! Two things keep the loop free of per-lane branches:
+//! - a lane in a tile or the background reads its constant from the copy
+//!   of the constants after the bricks in `values`, with offset 0, so every
+//!   corner is one unmasked gather from one base (two more gathers per lane
+//!   set, for the constants, had taken 8 % of the time in cache);
+//! - lanes whose corners span more than two blocks (22 of the 512 places
+//!   in a block) are collected and redone [`DEFERRED`] at a time by
+//!   `Grid::sample_index_at`, which prefetches all their corners first.
+//!   Redone one by one inside the loop, with the misses on blocks nobody
+//!   had prefetched, those 4 % of lanes took a third of the time on the
+//!   cloud (45 against 70 M/s with them skipped).
 //!
 //! Both passes are `#[inline]` functions with one call site each: a helper
 //! without the `avx2` feature does not inline the intrinsics (each became a
 //! call, 8 M lookups/s), and `#[inline(always)]` cannot be combined with
 //! `#[target_feature]`.
 
-use super::{prefetch_stencil, Grid, CONST_BIT, COORD_LIMIT, EMPTY};
+use super::{prefetch_stencil, Grid, BRICK_VOXELS, CONST_BIT, COORD_LIMIT, EMPTY};
 use glam::Vec3;
 use std::arch::x86_64::*;
 
 /// Whether this grid can take the vector path: it has the flat index, and
 /// every gather index (a brick's values, a flat-index entry) fits an i32.
 pub(super) fn usable(g: &Grid<f32>) -> bool {
-    !g.flat.is_empty()
-        && g.values.len() < i32::MAX as usize
-        && g.flat.len() < i32::MAX as usize
-        && g.constants.len() < i32::MAX as usize
+    !g.flat.is_empty() && g.values.len() < i32::MAX as usize && g.flat.len() < i32::MAX as usize
 }
 
 /// Eight points after the first pass: cell coordinates, weights, which
@@ -57,6 +64,9 @@ struct Consts {
 
 /// Lane sets between the first and the second pass of a point.
 const AHEAD: usize = 8;
+
+/// Lanes across an edge or corner collected before they are redone.
+const DEFERRED: usize = 64;
 
 /// Samples `points` into `out`.
 ///
@@ -83,17 +93,31 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
         sn: _mm256_setzero_si256(),
     };
     let mut ring = [zero; AHEAD];
+    // Lanes whose corners span more than two blocks, redone by
+    // `Grid::sample_index_at` a chunk at a time (room for one more lane set
+    // past DEFERRED: the appends below do not branch).
+    let mut deferred = [0usize; DEFERRED + 8];
+    let mut n = 0;
     // One call site each, so both passes inline into this loop.
     for j in 0..sets + AHEAD {
         let r = &mut ring[j % AHEAD];
         if j >= AHEAD {
             let k = 8 * (j - AHEAD);
-            second_pass(g, r, &points[k..], &mut out[k..]);
+            let multi = second_pass(g, r, &mut out[k..]);
+            for lane in 0..8 {
+                deferred[n] = k + lane;
+                n += (multi >> lane) as usize & 1;
+            }
+            if n >= DEFERRED {
+                g.sample_index_at(points, &deferred[..n], out);
+                n = 0;
+            }
         }
         if j < sets {
             *r = first_pass(g, &c, &points[8 * j..]);
         }
     }
+    g.sample_index_at(points, &deferred[..n], out);
     let k = 8 * sets;
     for j in k..points.len() {
         out[j] = g.sample_index(points[j]);
@@ -178,34 +202,32 @@ unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
     Lanes { i, w, ok, s, sn }
 }
 
-/// Gathers the eight corners of each lane and interpolates; lanes whose
-/// corners span more than two blocks are redone by the scalar path.
+/// Gathers the eight corners of each lane and interpolates; returns the
+/// lanes whose corners span more than two blocks (a bit each), which the
+/// caller must redo.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, points: &[Vec3], out: &mut [f32]) {
-    debug_assert!(points.len() >= 8 && out.len() >= 8);
+unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, out: &mut [f32]) -> u32 {
+    debug_assert!(out.len() >= 8);
     let seven = _mm256_set1_epi32(7);
     let edge =
         l.i.map(|v| _mm256_cmpeq_epi32(_mm256_and_si256(v, seven), seven));
     let v = voxel_offsets(l.i);
-    // SAFETY: the constant gathers read the constant indices of slot codes
-    // with CONST_BIT; the value gathers read, for the other lanes, offsets
-    // below 512 of the bricks their slot codes name (each corner's offset
-    // stays inside its block, as in `Grid::fetch_general`).
-    let constants = g.constants.as_ptr();
-    let const_value = |s: __m256i| {
-        _mm256_mask_i32gather_ps::<4>(
-            _mm256_setzero_ps(),
-            constants,
-            index(s),
-            _mm256_castsi256_ps(is_const(s)),
+    // SAFETY: every gather index is a value of `values`: for a brick lane,
+    // an offset below 512 of the brick its slot code names (each corner's
+    // offset stays inside its block, as in `Grid::fetch_general`); for a
+    // constant, its copy after the bricks (see `Grid::constants`).
+    let tail = _mm256_set1_epi32((g.brick_origins.len() * BRICK_VOXELS) as i32);
+    let (ks, kn) = (is_const(l.s), is_const(l.sn));
+    // Where a block's values start: its brick, or its constant's copy.
+    let start = |s: __m256i, k: __m256i| {
+        _mm256_blendv_epi8(
+            _mm256_slli_epi32::<9>(index(s)),
+            _mm256_add_epi32(tail, index(s)),
+            k,
         )
     };
-    let (cs, cn) = (const_value(l.s), const_value(l.sn));
-    let (bs, bn) = (
-        _mm256_slli_epi32::<9>(index(l.s)),
-        _mm256_slli_epi32::<9>(index(l.sn)),
-    );
+    let (bs, bn) = (start(l.s, ks), start(l.sn, kn));
     // Per axis, the step to the high corner: +1 voxel, or back 7 into the
     // next block where the cell crosses the face.
     let step = |a: usize, shift: i32| {
@@ -226,14 +248,12 @@ unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, points: &[Vec3], out: &mut [f32]
                 cross = _mm256_or_si256(cross, edge[a]);
             }
         }
+        // A constant's offset is 0.
         let base = _mm256_blendv_epi8(bs, bn, cross);
-        let konst = _mm256_blendv_epi8(is_const(l.s), is_const(l.sn), cross);
-        let cval = _mm256_blendv_ps(cs, cn, _mm256_castsi256_ps(cross));
-        _mm256_mask_i32gather_ps::<4>(
-            cval,
+        let konst = _mm256_blendv_epi8(ks, kn, cross);
+        _mm256_i32gather_ps::<4>(
             values,
-            _mm256_add_epi32(base, off),
-            _mm256_castsi256_ps(_mm256_xor_si256(konst, _mm256_set1_epi32(-1))),
+            _mm256_add_epi32(base, _mm256_andnot_si256(konst, off)),
         )
     };
     let d = [
@@ -253,7 +273,8 @@ unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, points: &[Vec3], out: &mut [f32]
     let y1 = lerp(lerp(d[4], d[5], w[2]), lerp(d[6], d[7], w[2]), w[1]);
     let r = _mm256_blendv_ps(_mm256_set1_ps(g.background), lerp(y0, y1, w[0]), l.ok);
     _mm256_storeu_ps(out.as_mut_ptr(), r);
-    // Lanes across an edge or a corner (two or three axes at 7).
+    // Lanes across an edge or a corner (two or three axes at 7): their
+    // results are wrong here, and the caller redoes them.
     let n_edges = _mm256_sub_epi32(
         _mm256_setzero_si256(),
         _mm256_add_epi32(_mm256_add_epi32(edge[0], edge[1]), edge[2]),
@@ -262,12 +283,7 @@ unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, points: &[Vec3], out: &mut [f32]
         _mm256_cmpgt_epi32(n_edges, _mm256_set1_epi32(1)),
         _mm256_castps_si256(l.ok),
     );
-    let mut bits = _mm256_movemask_ps(_mm256_castsi256_ps(multi)) as u32;
-    while bits != 0 {
-        let j = bits.trailing_zeros() as usize;
-        bits &= bits - 1;
-        out[j] = g.sample_index(points[j]);
-    }
+    _mm256_movemask_ps(_mm256_castsi256_ps(multi)) as u32
 }
 
 /// Eight points of three floats (x y z x y z ...) as x, y and z vectors.

@@ -49,7 +49,8 @@ impl<T: GridValue> BrickValues<T> {
     }
 
     /// `bricks` bricks whose `CHANNELS` floats per value `fill` writes
-    /// through a pointer to `len` floats, without zeroing them first: the
+    /// through a pointer to `len` floats, with room for `spare_values` more
+    /// values after them, without zeroing them first: the
     /// loader's copy from OpenVDB touches the fresh pages once, from all
     /// threads, instead of after a zeroing pass (5 ms on the 512^3 cloud).
     ///
@@ -57,16 +58,19 @@ impl<T: GridValue> BrickValues<T> {
     /// When `fill` returns `Ok`, it must have written all `len` floats.
     pub(crate) unsafe fn from_fill<E>(
         bricks: usize,
+        spare_values: usize,
         fill: impl FnOnce(*mut f32, usize) -> Result<(), E>,
     ) -> Result<Self, E> {
-        let mut blocks: Vec<Block<T>> = Vec::with_capacity(bricks);
+        let capacity = bricks + spare_values.div_ceil(BRICK_VOXELS);
+        let mut blocks: Vec<Block<T>> = Vec::with_capacity(capacity);
         advise_huge_pages(
             blocks.as_mut_ptr().cast(),
-            bricks * std::mem::size_of::<Block<T>>(),
+            capacity * std::mem::size_of::<Block<T>>(),
         );
         let len = bricks * BRICK_VOXELS * T::CHANNELS;
         // A value is CHANNELS floats with no padding (`GridValue`), and a
-        // block is its values (NO_PADDING), so the capacity is `len` floats.
+        // block is its values (NO_PADDING), so the capacity holds `len`
+        // floats.
         #[allow(clippy::let_unit_value)]
         let () = Self::NO_PADDING;
         fill(blocks.as_mut_ptr().cast::<f32>(), len)?;

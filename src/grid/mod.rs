@@ -203,7 +203,10 @@ pub struct Grid<T: GridValue> {
     /// interpolation reads them all).
     ranges: Vec<[T; 2]>,
     tiles: Vec<Tile<T>>,
-    /// `constants[0]` is the background, then one entry per tile.
+    /// `constants[0]` is the background, then one entry per tile. They are
+    /// also the tail of `values`, after the bricks (from `brick_count() *
+    /// 512` on), so that the AVX2 batch reads a brick value or a constant
+    /// by one gather from one base (`batch_avx2`).
     constants: Vec<T>,
     /// Top index origin and size in units of 128 voxels.
     top_origin: IVec3,
@@ -261,16 +264,24 @@ fn across(i0: IVec3, edge: BVec3) -> IVec3 {
 /// row in each (+9, +73), which starts a new line for odd y. A hint only.
 #[inline(always)]
 fn prefetch_stencil<T>(first: *const T) {
-    #[cfg(target_arch = "x86_64")]
     for o in [0usize, 9, 64, 73] {
+        prefetch_line(first.wrapping_add(o));
+    }
+}
+
+/// Asks for the cache line holding `*p`. A hint only.
+#[inline(always)]
+fn prefetch_line<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
         // SAFETY: a prefetch is a hint; it does not access memory in the
-        // language's sense, so any address is sound (the pointer is formed
+        // language's sense, so any address is sound (callers form pointers
         // with wrapping arithmetic).
-        unsafe { _mm_prefetch(first.wrapping_add(o) as *const i8, _MM_HINT_T0) };
+        unsafe { _mm_prefetch(p as *const i8, _MM_HINT_T0) };
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = first;
+    let _ = p;
 }
 
 #[inline(always)]
@@ -498,6 +509,9 @@ impl<T: GridValue> Grid<T> {
             }
         }
         grid.tiles = tiles;
+        // The constants' copy after the bricks (see the field); the loader
+        // reserves room for it, so this does not move the bricks.
+        grid.values.extend_from_slice(&grid.constants);
         for b in 0..grid.brick_origins.len() {
             let o = grid.brick_origins[b];
             let s = grid.node_slot_mut(o).map_err(bad)?;
@@ -514,7 +528,7 @@ impl<T: GridValue> Grid<T> {
         grid.build_flat();
 
         let (ranges, finite): (Vec<[T; 2]>, Vec<bool>) = grid
-            .values
+            .brick_slice()
             .par_chunks(BRICK_VOXELS)
             .with_min_len(64)
             .map(T::range_of)
@@ -560,7 +574,7 @@ impl<T: GridValue> Grid<T> {
         let (a, b) = (lo >> 3_i32, hi >> 3_i32);
         let d = (b - a).as_i64vec3() + 1;
         let len = d.x * d.y * d.z;
-        let budget = (self.top.len() + self.nodes.len() + self.values.len() / 16) as i64;
+        let budget = (self.top.len() + self.nodes.len() + self.brick_slice().len() / 16) as i64;
         if len > budget {
             return;
         }
@@ -751,6 +765,106 @@ impl<T: GridValue> Grid<T> {
         })
     }
 
+    /// The address of each corner value of the cell at `i0`, in
+    /// [`Self::fetch8`]'s order, whatever blocks the corners are in (for a
+    /// corner in a tile or the background, its constant's address). Without
+    /// branches on the blocks: which of its neighbours a cell across an edge
+    /// or corner meets follows no pattern a predictor could learn.
+    #[inline(always)]
+    fn corner_addresses(&self, i0: IVec3) -> [*const T; 8] {
+        // The blocks of the low and the high corners along each axis.
+        let (lo, hi) = (
+            (i0 >> 3_i32) - self.flat_origin,
+            ((i0 + 1) >> 3_i32) - self.flat_origin,
+        );
+        let d = self.flat_dims;
+        if self.flat.is_empty() || !inside(lo, d) || !inside(hi, d) {
+            let at = |x: i32, y: i32, z: i32| {
+                let v = i0 + IVec3::new(x, y, z);
+                self.block_base(self.slot(v), voxel_offset(v)).0
+            };
+            return [
+                at(0, 0, 0),
+                at(0, 0, 1),
+                at(0, 1, 0),
+                at(0, 1, 1),
+                at(1, 0, 0),
+                at(1, 0, 1),
+                at(1, 1, 0),
+                at(1, 1, 1),
+            ];
+        }
+        // In the flat index, a corner's entry and voxel offset are sums of
+        // one term per axis: six of each, not eight index walks.
+        let (dx, dxy) = (d.x as usize, d.x as usize * d.y as usize);
+        let x = [lo.x as usize, hi.x as usize];
+        let y = [lo.y as usize * dx, hi.y as usize * dx];
+        let z = [lo.z as usize * dxy, hi.z as usize * dxy];
+        let v = |a: i32, shift: i32| {
+            [
+                ((a & 7) << shift) as usize,
+                (((a + 1) & 7) << shift) as usize,
+            ]
+        };
+        let (vx, vy, vz) = (v(i0.x, 6), v(i0.y, 3), v(i0.z, 0));
+        let at = |cx: usize, cy: usize, cz: usize| {
+            let i = x[cx] + y[cy] + z[cz];
+            debug_assert!(i < self.flat.len());
+            // SAFETY: lo and hi are inside flat_dims (checked above), so
+            // every mix of their coordinates is an entry of `flat`.
+            let s = unsafe { *self.flat.get_unchecked(i) };
+            self.block_base(s, vx[cx] + vy[cy] + vz[cz]).0
+        };
+        [
+            at(0, 0, 0),
+            at(0, 0, 1),
+            at(0, 1, 0),
+            at(0, 1, 1),
+            at(1, 0, 0),
+            at(1, 0, 1),
+            at(1, 1, 0),
+            at(1, 1, 1),
+        ]
+    }
+
+    /// `out[j] = sample_index(points[j])` for each `j` of `which`, every
+    /// corner of a chunk of points prefetched before any is read. The AVX2
+    /// batch defers here the lookups whose corners span four or eight
+    /// blocks (22 of the 512 places in a block): redone one at a time in
+    /// its loop, with the branches of [`Self::fetch_general`] and the
+    /// misses on blocks it had not prefetched, those 4 % of lookups took a
+    /// third of its time (`benches/grid.rs`).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    fn sample_index_at(&self, points: &[Vec3], which: &[usize], out: &mut [T]) {
+        const N: usize = BATCH_LANES;
+        for chunk in which.chunks(N) {
+            let mut corners = [[std::ptr::null::<T>(); 8]; N];
+            let mut ws = [Vec3::ZERO; N];
+            for (k, &j) in chunk.iter().enumerate() {
+                if let Some((i0, w)) = floor_split(points[j]) {
+                    corners[k] = self.corner_addresses(i0);
+                    ws[k] = w;
+                    for c in corners[k] {
+                        prefetch_line(c);
+                    }
+                }
+            }
+            for (k, &j) in chunk.iter().enumerate() {
+                out[j] = if corners[k][0].is_null() {
+                    self.background
+                } else {
+                    // SAFETY: each address is a value of `values` or
+                    // `constants` (`block_base`), both borrowed from self.
+                    let c = &corners[k];
+                    Self::interpolate(
+                        unsafe { [*c[0], *c[1], *c[2], *c[3], *c[4], *c[5], *c[6], *c[7]] },
+                        ws[k],
+                    )
+                };
+            }
+        }
+    }
+
     /// Trilinear interpolation of the eight corners, in `BoxSampler`'s order.
     #[inline(always)]
     fn interpolate(d: [T; 8], w: Vec3) -> T {
@@ -784,10 +898,11 @@ impl<T: GridValue> Grid<T> {
     /// with the flat index on processors with AVX2 this runs eight points
     /// per instruction (`batch_avx2`); otherwise [`BATCH_LANES`] points at
     /// a time through two scalar passes. Measured with `benches/grid.rs`
-    /// (one core, random points): 31-35 M/s on the generated 512^3 cloud
-    /// against 10-12 one at a time, 61 against 20-31 on pig.vdb, 76
-    /// against 61 in cache. Meant for callers with many independent points
-    /// at once, such as photons or rays traced in lockstep.
+    /// (one core, random points, the VM in its usual phase): 48-51 M/s on
+    /// the generated 512^3 cloud against 13-14 one at a time, 70-74
+    /// against 40-42 on pig.vdb, 90-91 against 57-62 in cache. Meant for
+    /// callers with many independent points at once, such as photons or
+    /// rays traced in lockstep.
     ///
     /// # Panics
     /// If `points` and `out` differ in length.
@@ -1034,6 +1149,12 @@ impl<T: GridValue> Grid<T> {
     pub fn brick_origins(&self) -> &[IVec3] {
         &self.brick_origins
     }
+    /// The values of all bricks, brick `b` at `b * 512` (without the
+    /// constants' copy that follows them).
+    fn brick_slice(&self) -> &[T] {
+        &self.values[..self.brick_origins.len() * BRICK_VOXELS]
+    }
+
     /// The 512 values of brick `b`.
     pub fn brick_values(&self, b: usize) -> &[T] {
         &self.values[b * BRICK_VOXELS..(b + 1) * BRICK_VOXELS]
@@ -1121,7 +1242,11 @@ impl<T: GridValue> Grid<T> {
             background: self.background,
             world_from_index: self.world_from_index,
             brick_origins: self.brick_origins.clone(),
-            values: self.values.clone(),
+            values: {
+                let mut v = BrickValues::with_brick_capacity(self.brick_origins.len());
+                v.extend_from_slice(self.brick_slice());
+                v
+            },
             masks: self.masks.clone(),
             tiles: self.tiles.clone(),
         }
@@ -1131,6 +1256,15 @@ impl<T: GridValue> Grid<T> {
     /// index at its origin, every range bounding its brick's values. For
     /// tests; O(size of the grid).
     pub fn validate(&self) -> std::result::Result<(), String> {
+        let bits = |v: &[T]| {
+            T::to_flat(v)
+                .iter()
+                .map(|f| f.to_bits())
+                .collect::<Vec<_>>()
+        };
+        if bits(&self.values[self.brick_slice().len()..]) != bits(&self.constants) {
+            return Err("the values' tail is not the constants".into());
+        }
         for (b, o) in self.brick_origins.iter().enumerate() {
             if self.slot(*o) != b as u32 {
                 return Err(format!("brick {b} at {o} is not reachable"));

@@ -38,7 +38,7 @@ const RR_DEPTH: u32 = 3;
 /// Throughput below which Russian roulette plays: a path survives with
 /// probability β/RR_THRESHOLD and goes on with β = RR_THRESHOLD. pbrt-v4
 /// uses 1, which for a grey medium turns the weighted absorption back into
-/// the analog one after [`RR_DEPTH`]. Measured on the reference scene at
+/// the analog one after `RR_DEPTH`. Measured on the reference scene at
 /// 256 spp (relMSE × render time, lower is better): 1 → 3.56e-3,
 /// 0.5 → 3.00e-3, 0.25 → 3.09e-3, 0.1 → 3.34e-3; 0.25 keeps most of the
 /// variance gain of weighting (relMSE 2.17e-4 against 3.30e-4 with 1).

@@ -1,5 +1,5 @@
 //! Safe access to `.vdb` files: the header check of [`header`], then the
-//! OpenVDB bridge of [`ffi`] for the grids themselves.
+//! OpenVDB bridge of `ffi` for the grids themselves.
 //!
 //! Reading a grid: check the path and the header in Rust (a damaged file is
 //! refused at once, see [`header`]), refuse unsupported value types from the
@@ -218,7 +218,10 @@ impl VdbFile {
         // (the bridge checks the buffer sizes against the leaf count, then
         // copies each leaf whole), and it may write `len` floats.
         let values = unsafe {
-            BrickValues::<T>::from_fill(n, |ptr, len| {
+            // Room for the grid's constants after the bricks (one per
+            // tile and the background: `Grid::from_parts` appends them).
+            let constants = layout.tile_levels.len() + 1;
+            BrickValues::<T>::from_fill(n, constants, |ptr, len| {
                 bridge::copy_leaves(&loaded, &mut origins, ptr, len, &mut masks)
             })
         }
