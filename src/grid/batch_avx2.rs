@@ -4,8 +4,8 @@
 //! Why: once the scalar batch hides memory latency, its own instruction
 //! count limits it (about 45 M lookups/s on one core for a grid in cache).
 //! Eight lanes share every instruction of the floor, the index walk and the
-//! interpolation, and the corners come in by AVX2 gathers: about 90 M/s in
-//! cache, 70-74 on pig.vdb and 48-51 on the 512^3 cloud (`benches/grid.rs`,
+//! interpolation, and the corners come in by AVX2 gathers: 95 M/s in
+//! cache, 78-80 on pig.vdb and 54-58 on the 512^3 cloud (`benches/grid.rs`,
 //! where the figures are printed; the VM's slow phases give less). A
 //! software pipeline runs the first pass (floor, block slots, prefetches)
 //! [`AHEAD`] lane sets before the second (gathers, interpolation).
@@ -21,18 +21,19 @@
 //!   corner is one unmasked gather from one base (two more gathers per lane
 //!   set, for the constants, had taken 8 % of the time in cache);
 //! - lanes whose corners span more than two blocks (22 of the 512 places
-//!   in a block) are collected and redone [`DEFERRED`] at a time by
-//!   `Grid::sample_index_at`, which prefetches all their corners first.
-//!   Redone one by one inside the loop, with the misses on blocks nobody
-//!   had prefetched, those 4 % of lanes took a third of the time on the
-//!   cloud (45 against 70 M/s with them skipped).
+//!   in a block) are collected and redone [`DEFERRED`] at a time, eight
+//!   per vector, by `redo_deferred`: every corner's slot and index first,
+//!   each prefetched, then the gathers. Redone one by one inside the loop,
+//!   with the branches of the scalar path and misses on blocks nobody had
+//!   prefetched, those 4 % of lanes took a third of the time on the cloud
+//!   (45 against 70 M/s with them skipped).
 //!
 //! Both passes are `#[inline]` functions with one call site each: a helper
 //! without the `avx2` feature does not inline the intrinsics (each became a
 //! call, 8 M lookups/s), and `#[inline(always)]` cannot be combined with
 //! `#[target_feature]`.
 
-use super::{prefetch_stencil, Grid, BRICK_VOXELS, CONST_BIT, COORD_LIMIT, EMPTY};
+use super::{prefetch_line, prefetch_stencil, Grid, BRICK_VOXELS, CONST_BIT, COORD_LIMIT, EMPTY};
 use glam::Vec3;
 use std::arch::x86_64::*;
 
@@ -94,8 +95,8 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
     };
     let mut ring = [zero; AHEAD];
     // Lanes whose corners span more than two blocks, redone by
-    // `Grid::sample_index_at` a chunk at a time (room for one more lane set
-    // past DEFERRED: the appends below do not branch).
+    // `redo_deferred` a chunk at a time (room for one more lane set past
+    // DEFERRED: the appends below do not branch).
     let mut deferred = [0usize; DEFERRED + 8];
     let mut n = 0;
     // One call site each, so both passes inline into this loop.
@@ -109,7 +110,7 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
                 n += (multi >> lane) as usize & 1;
             }
             if n >= DEFERRED {
-                g.sample_index_at(points, &deferred[..n], out);
+                redo_deferred(g, &c, points, &deferred[..n], out);
                 n = 0;
             }
         }
@@ -117,10 +118,130 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
             *r = first_pass(g, &c, &points[8 * j..]);
         }
     }
-    g.sample_index_at(points, &deferred[..n], out);
+    redo_deferred(g, &c, points, &deferred[..n], out);
     let k = 8 * sets;
     for j in k..points.len() {
         out[j] = g.sample_index(points[j]);
+    }
+}
+
+/// `out[j] = sample_index(points[j])` for the lanes `which` whose corners
+/// span four or eight blocks, eight lanes per vector: first every corner's
+/// slot (one flat-index gather per corner) and value index, with a
+/// prefetch of each, then the value gathers and interpolation.
+///
+/// # Safety
+/// As for [`sample`]; each of `which` is below `points.len()`, and there
+/// are at most `DEFERRED + 8` of them.
+#[target_feature(enable = "avx2")]
+unsafe fn redo_deferred(
+    g: &Grid<f32>,
+    c: &Consts,
+    points: &[Vec3],
+    which: &[usize],
+    out: &mut [f32],
+) {
+    const GROUPS: usize = DEFERRED / 8 + 1;
+    debug_assert!(which.len() <= 8 * GROUPS);
+    if which.is_empty() {
+        return;
+    }
+    if points.len() > (i32::MAX / 3) as usize {
+        // Point indices as gather offsets would overflow.
+        for &j in which {
+            out[j] = g.sample_index(points[j]);
+        }
+        return;
+    }
+    let groups = which.len().div_ceil(8);
+    let mut lanes = [[0i32; 8]; GROUPS];
+    let mut corners = [[_mm256_setzero_si256(); 8]; GROUPS];
+    let mut weights = [[_mm256_setzero_ps(); 3]; GROUPS];
+    let one = _mm256_set1_epi32(1);
+    let seven = _mm256_set1_epi32(7);
+    let empty = _mm256_set1_epi32(EMPTY as i32);
+    let tail = _mm256_set1_epi32((g.brick_origins.len() * BRICK_VOXELS) as i32);
+    let scale = [one, c.dx, c.dxy];
+    let flat = g.flat.as_ptr() as *const i32;
+    let values = g.values.as_ptr();
+    for q in 0..groups {
+        // The last group is padded with its last lane (written twice).
+        for (l, lane) in lanes[q].iter_mut().enumerate() {
+            *lane = which[(8 * q + l).min(which.len() - 1)] as i32;
+        }
+        let i3 = _mm256_mullo_epi32(
+            _mm256_loadu_si256(lanes[q].as_ptr() as *const __m256i),
+            _mm256_set1_epi32(3),
+        );
+        // SAFETY: each lane's three floats are those of a point.
+        let p = points.as_ptr() as *const f32;
+        let pv = [0, 1, 2]
+            .map(|a| _mm256_i32gather_ps::<4>(p, _mm256_add_epi32(i3, _mm256_set1_epi32(a))));
+        // As in `first_pass` (these lanes passed its range check).
+        let i = pv.map(|v| _mm256_cvttps_epi32(_mm256_floor_ps(v)));
+        weights[q] = [0, 1, 2].map(|a| _mm256_sub_ps(pv[a], _mm256_cvtepi32_ps(i[a])));
+        // Per axis, the flat-index term, whether it is inside the index,
+        // and the voxel offset, for the low and the high corner.
+        let mut term = [[_mm256_setzero_si256(); 2]; 3];
+        let mut inside = [[_mm256_setzero_si256(); 2]; 3];
+        let mut voxel = [[_mm256_setzero_si256(); 2]; 3];
+        for a in 0..3 {
+            for (h, v) in [i[a], _mm256_add_epi32(i[a], one)].into_iter().enumerate() {
+                let t = _mm256_sub_epi32(_mm256_srai_epi32::<3>(v), c.origin[a]);
+                term[a][h] = _mm256_mullo_epi32(t, scale[a]);
+                inside[a][h] = _mm256_andnot_si256(
+                    _mm256_cmpgt_epi32(_mm256_setzero_si256(), t),
+                    _mm256_cmpgt_epi32(c.dims[a], t),
+                );
+                voxel[a][h] = _mm256_sllv_epi32(
+                    _mm256_and_si256(v, seven),
+                    _mm256_set1_epi32(6 - 3 * a as i32),
+                );
+            }
+        }
+        for (k, corner) in corners[q].iter_mut().enumerate() {
+            let (x, y, z) = (k >> 2, (k >> 1) & 1, k & 1);
+            let lin = _mm256_add_epi32(_mm256_add_epi32(term[0][x], term[1][y]), term[2][z]);
+            let m = _mm256_and_si256(_mm256_and_si256(inside[0][x], inside[1][y]), inside[2][z]);
+            // SAFETY: masked to entries inside `flat_dims`.
+            let s = _mm256_mask_i32gather_epi32::<4>(empty, flat, lin, m);
+            let off = _mm256_add_epi32(_mm256_add_epi32(voxel[0][x], voxel[1][y]), voxel[2][z]);
+            *corner = _mm256_blendv_epi8(
+                _mm256_add_epi32(_mm256_slli_epi32::<9>(index(s)), off),
+                _mm256_add_epi32(tail, index(s)),
+                is_const(s),
+            );
+            let mut o = [0i32; 8];
+            _mm256_storeu_si256(o.as_mut_ptr() as *mut __m256i, *corner);
+            for o in o {
+                prefetch_line(values.wrapping_add(o as usize));
+            }
+        }
+    }
+    for q in 0..groups {
+        // SAFETY: each index is a value of `values`, as in `second_pass`.
+        let d = &corners[q];
+        let d = [
+            _mm256_i32gather_ps::<4>(values, d[0]),
+            _mm256_i32gather_ps::<4>(values, d[1]),
+            _mm256_i32gather_ps::<4>(values, d[2]),
+            _mm256_i32gather_ps::<4>(values, d[3]),
+            _mm256_i32gather_ps::<4>(values, d[4]),
+            _mm256_i32gather_ps::<4>(values, d[5]),
+            _mm256_i32gather_ps::<4>(values, d[6]),
+            _mm256_i32gather_ps::<4>(values, d[7]),
+        ];
+        let w = weights[q];
+        let lerp = |a: __m256, b: __m256, w: __m256| {
+            _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), w))
+        };
+        let y0 = lerp(lerp(d[0], d[1], w[2]), lerp(d[2], d[3], w[2]), w[1]);
+        let y1 = lerp(lerp(d[4], d[5], w[2]), lerp(d[6], d[7], w[2]), w[1]);
+        let mut r = [0f32; 8];
+        _mm256_storeu_ps(r.as_mut_ptr(), lerp(y0, y1, w[0]));
+        for (l, &j) in lanes[q].iter().enumerate() {
+            out[j as usize] = r[l];
+        }
     }
 }
 

@@ -765,106 +765,6 @@ impl<T: GridValue> Grid<T> {
         })
     }
 
-    /// The address of each corner value of the cell at `i0`, in
-    /// [`Self::fetch8`]'s order, whatever blocks the corners are in (for a
-    /// corner in a tile or the background, its constant's address). Without
-    /// branches on the blocks: which of its neighbours a cell across an edge
-    /// or corner meets follows no pattern a predictor could learn.
-    #[inline(always)]
-    fn corner_addresses(&self, i0: IVec3) -> [*const T; 8] {
-        // The blocks of the low and the high corners along each axis.
-        let (lo, hi) = (
-            (i0 >> 3_i32) - self.flat_origin,
-            ((i0 + 1) >> 3_i32) - self.flat_origin,
-        );
-        let d = self.flat_dims;
-        if self.flat.is_empty() || !inside(lo, d) || !inside(hi, d) {
-            let at = |x: i32, y: i32, z: i32| {
-                let v = i0 + IVec3::new(x, y, z);
-                self.block_base(self.slot(v), voxel_offset(v)).0
-            };
-            return [
-                at(0, 0, 0),
-                at(0, 0, 1),
-                at(0, 1, 0),
-                at(0, 1, 1),
-                at(1, 0, 0),
-                at(1, 0, 1),
-                at(1, 1, 0),
-                at(1, 1, 1),
-            ];
-        }
-        // In the flat index, a corner's entry and voxel offset are sums of
-        // one term per axis: six of each, not eight index walks.
-        let (dx, dxy) = (d.x as usize, d.x as usize * d.y as usize);
-        let x = [lo.x as usize, hi.x as usize];
-        let y = [lo.y as usize * dx, hi.y as usize * dx];
-        let z = [lo.z as usize * dxy, hi.z as usize * dxy];
-        let v = |a: i32, shift: i32| {
-            [
-                ((a & 7) << shift) as usize,
-                (((a + 1) & 7) << shift) as usize,
-            ]
-        };
-        let (vx, vy, vz) = (v(i0.x, 6), v(i0.y, 3), v(i0.z, 0));
-        let at = |cx: usize, cy: usize, cz: usize| {
-            let i = x[cx] + y[cy] + z[cz];
-            debug_assert!(i < self.flat.len());
-            // SAFETY: lo and hi are inside flat_dims (checked above), so
-            // every mix of their coordinates is an entry of `flat`.
-            let s = unsafe { *self.flat.get_unchecked(i) };
-            self.block_base(s, vx[cx] + vy[cy] + vz[cz]).0
-        };
-        [
-            at(0, 0, 0),
-            at(0, 0, 1),
-            at(0, 1, 0),
-            at(0, 1, 1),
-            at(1, 0, 0),
-            at(1, 0, 1),
-            at(1, 1, 0),
-            at(1, 1, 1),
-        ]
-    }
-
-    /// `out[j] = sample_index(points[j])` for each `j` of `which`, every
-    /// corner of a chunk of points prefetched before any is read. The AVX2
-    /// batch defers here the lookups whose corners span four or eight
-    /// blocks (22 of the 512 places in a block): redone one at a time in
-    /// its loop, with the branches of [`Self::fetch_general`] and the
-    /// misses on blocks it had not prefetched, those 4 % of lookups took a
-    /// third of its time (`benches/grid.rs`).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    fn sample_index_at(&self, points: &[Vec3], which: &[usize], out: &mut [T]) {
-        const N: usize = BATCH_LANES;
-        for chunk in which.chunks(N) {
-            let mut corners = [[std::ptr::null::<T>(); 8]; N];
-            let mut ws = [Vec3::ZERO; N];
-            for (k, &j) in chunk.iter().enumerate() {
-                if let Some((i0, w)) = floor_split(points[j]) {
-                    corners[k] = self.corner_addresses(i0);
-                    ws[k] = w;
-                    for c in corners[k] {
-                        prefetch_line(c);
-                    }
-                }
-            }
-            for (k, &j) in chunk.iter().enumerate() {
-                out[j] = if corners[k][0].is_null() {
-                    self.background
-                } else {
-                    // SAFETY: each address is a value of `values` or
-                    // `constants` (`block_base`), both borrowed from self.
-                    let c = &corners[k];
-                    Self::interpolate(
-                        unsafe { [*c[0], *c[1], *c[2], *c[3], *c[4], *c[5], *c[6], *c[7]] },
-                        ws[k],
-                    )
-                };
-            }
-        }
-    }
-
     /// Trilinear interpolation of the eight corners, in `BoxSampler`'s order.
     #[inline(always)]
     fn interpolate(d: [T; 8], w: Vec3) -> T {
@@ -898,9 +798,9 @@ impl<T: GridValue> Grid<T> {
     /// with the flat index on processors with AVX2 this runs eight points
     /// per instruction (`batch_avx2`); otherwise [`BATCH_LANES`] points at
     /// a time through two scalar passes. Measured with `benches/grid.rs`
-    /// (one core, random points, the VM in its usual phase): 48-51 M/s on
-    /// the generated 512^3 cloud against 13-14 one at a time, 70-74
-    /// against 40-42 on pig.vdb, 90-91 against 57-62 in cache. Meant for
+    /// (one core, random points, the VM in its usual phase): 54-58 M/s on
+    /// the generated 512^3 cloud against 14-16 one at a time, 78-80
+    /// against 26-36 on pig.vdb, 95 against 62 in cache. Meant for
     /// callers with many independent points at once, such as photons or
     /// rays traced in lockstep.
     ///
