@@ -4,9 +4,10 @@
 //! Why: once the scalar batch hides memory latency, its own instruction
 //! count limits it (about 45 M lookups/s on one core for a grid in cache).
 //! Eight lanes share every instruction of the floor, the index walk and the
-//! interpolation, and the corners come in by AVX2 gathers: 95 M/s in
-//! cache, 78-80 on pig.vdb and 54-58 on the 512^3 cloud (`benches/grid.rs`,
-//! where the figures are printed; the VM's slow phases give less). A
+//! interpolation, and the corners come in by AVX2 gathers: 94-95 M/s in
+//! cache, 77-82 on pig.vdb and 35-58 on the 512^3 cloud, the latter two
+//! depending on the memory phase of the VM (six runs of `benches/grid.rs`,
+//! where the figures are printed). A
 //! software pipeline runs the first pass (floor, block slots, prefetches)
 //! [`AHEAD`] lane sets before the second (gathers, interpolation).
 //!

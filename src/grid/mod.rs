@@ -798,9 +798,10 @@ impl<T: GridValue> Grid<T> {
     /// with the flat index on processors with AVX2 this runs eight points
     /// per instruction (`batch_avx2`); otherwise [`BATCH_LANES`] points at
     /// a time through two scalar passes. Measured with `benches/grid.rs`
-    /// (one core, random points, the VM in its usual phase): 54-58 M/s on
-    /// the generated 512^3 cloud against 14-16 one at a time, 78-80
-    /// against 26-36 on pig.vdb, 95 against 62 in cache. Meant for
+    /// (one core, random points, six runs whose spread is the VM's memory
+    /// phase): 35-58 M/s on the generated 512^3 cloud against 10-16 one at
+    /// a time, 77-82 (one run 49) against 15-46 on pig.vdb, 94-95 against
+    /// 62 in cache. Meant for
     /// callers with many independent points at once, such as photons or
     /// rays traced in lockstep.
     ///
