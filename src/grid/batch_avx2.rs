@@ -34,7 +34,7 @@
 //! call, 8 M lookups/s), and `#[inline(always)]` cannot be combined with
 //! `#[target_feature]`.
 
-use super::{prefetch_line, prefetch_stencil, Grid, BRICK_VOXELS, CONST_BIT, COORD_LIMIT, EMPTY};
+use super::{prefetch_line, prefetch_stencil, Grid, CONST_BIT, COORD_LIMIT, EMPTY};
 use glam::Vec3;
 use std::arch::x86_64::*;
 
@@ -62,6 +62,8 @@ struct Consts {
     dims: [__m256i; 3],
     dx: __m256i,
     dxy: __m256i,
+    /// Where the constants' copy starts in `values` (see `Grid::constants`).
+    tail: __m256i,
 }
 
 /// Lane sets between the first and the second pass of a point.
@@ -83,6 +85,7 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
         dims: [g.flat_dims.x, g.flat_dims.y, g.flat_dims.z].map(|d| _mm256_set1_epi32(d)),
         dx: _mm256_set1_epi32(g.flat_dims.x),
         dxy: _mm256_set1_epi32(g.flat_dims.x * g.flat_dims.y),
+        tail: _mm256_set1_epi32(g.brick_slice().len() as i32),
     };
     // A software pipeline: the first pass runs AHEAD lane sets before the
     // second, so each set's corners were asked for that long before.
@@ -105,7 +108,7 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
         let r = &mut ring[j % AHEAD];
         if j >= AHEAD {
             let k = 8 * (j - AHEAD);
-            let multi = second_pass(g, r, &mut out[k..]);
+            let multi = second_pass(g, &c, r, &mut out[k..]);
             for lane in 0..8 {
                 deferred[n] = k + lane;
                 n += (multi >> lane) as usize & 1;
@@ -161,7 +164,6 @@ unsafe fn redo_deferred(
     let one = _mm256_set1_epi32(1);
     let seven = _mm256_set1_epi32(7);
     let empty = _mm256_set1_epi32(EMPTY as i32);
-    let tail = _mm256_set1_epi32((g.brick_origins.len() * BRICK_VOXELS) as i32);
     let scale = [one, c.dx, c.dxy];
     let flat = g.flat.as_ptr() as *const i32;
     let values = g.values.as_ptr();
@@ -209,7 +211,7 @@ unsafe fn redo_deferred(
             let off = _mm256_add_epi32(_mm256_add_epi32(voxel[0][x], voxel[1][y]), voxel[2][z]);
             *corner = _mm256_blendv_epi8(
                 _mm256_add_epi32(_mm256_slli_epi32::<9>(index(s)), off),
-                _mm256_add_epi32(tail, index(s)),
+                _mm256_add_epi32(c.tail, index(s)),
                 is_const(s),
             );
             let mut o = [0i32; 8];
@@ -232,14 +234,8 @@ unsafe fn redo_deferred(
             _mm256_i32gather_ps::<4>(values, d[6]),
             _mm256_i32gather_ps::<4>(values, d[7]),
         ];
-        let w = weights[q];
-        let lerp = |a: __m256, b: __m256, w: __m256| {
-            _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), w))
-        };
-        let y0 = lerp(lerp(d[0], d[1], w[2]), lerp(d[2], d[3], w[2]), w[1]);
-        let y1 = lerp(lerp(d[4], d[5], w[2]), lerp(d[6], d[7], w[2]), w[1]);
         let mut r = [0f32; 8];
-        _mm256_storeu_ps(r.as_mut_ptr(), lerp(y0, y1, w[0]));
+        _mm256_storeu_ps(r.as_mut_ptr(), interpolate(d, weights[q]));
         for (l, &j) in lanes[q].iter().enumerate() {
             out[j as usize] = r[l];
         }
@@ -329,7 +325,7 @@ unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
 /// caller must redo.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, out: &mut [f32]) -> u32 {
+unsafe fn second_pass(g: &Grid<f32>, c: &Consts, l: &Lanes, out: &mut [f32]) -> u32 {
     debug_assert!(out.len() >= 8);
     let seven = _mm256_set1_epi32(7);
     let edge =
@@ -339,13 +335,12 @@ unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, out: &mut [f32]) -> u32 {
     // an offset below 512 of the brick its slot code names (each corner's
     // offset stays inside its block, as in `Grid::fetch_general`); for a
     // constant, its copy after the bricks (see `Grid::constants`).
-    let tail = _mm256_set1_epi32((g.brick_origins.len() * BRICK_VOXELS) as i32);
     let (ks, kn) = (is_const(l.s), is_const(l.sn));
     // Where a block's values start: its brick, or its constant's copy.
     let start = |s: __m256i, k: __m256i| {
         _mm256_blendv_epi8(
             _mm256_slli_epi32::<9>(index(s)),
-            _mm256_add_epi32(tail, index(s)),
+            _mm256_add_epi32(c.tail, index(s)),
             k,
         )
     };
@@ -388,12 +383,7 @@ unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, out: &mut [f32]) -> u32 {
         corner(true, true, false),
         corner(true, true, true),
     ];
-    let w = l.w;
-    let lerp =
-        |a: __m256, b: __m256, w: __m256| _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), w));
-    let y0 = lerp(lerp(d[0], d[1], w[2]), lerp(d[2], d[3], w[2]), w[1]);
-    let y1 = lerp(lerp(d[4], d[5], w[2]), lerp(d[6], d[7], w[2]), w[1]);
-    let r = _mm256_blendv_ps(_mm256_set1_ps(g.background), lerp(y0, y1, w[0]), l.ok);
+    let r = _mm256_blendv_ps(_mm256_set1_ps(g.background), interpolate(d, l.w), l.ok);
     _mm256_storeu_ps(out.as_mut_ptr(), r);
     // Lanes across an edge or a corner (two or three axes at 7): their
     // results are wrong here, and the caller redoes them.
@@ -406,6 +396,19 @@ unsafe fn second_pass(g: &Grid<f32>, l: &Lanes, out: &mut [f32]) -> u32 {
         _mm256_castps_si256(l.ok),
     );
     _mm256_movemask_ps(_mm256_castsi256_ps(multi)) as u32
+}
+
+/// Trilinear interpolation of eight corners (ordered `[x][y][z]`) with
+/// weights `w`, as `Grid::interpolate` computes it: `a + (b - a) * w` in
+/// the same order, no fused multiply-add, so the same bits.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn interpolate(d: [__m256; 8], w: [__m256; 3]) -> __m256 {
+    let lerp =
+        |a: __m256, b: __m256, w: __m256| _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), w));
+    let y0 = lerp(lerp(d[0], d[1], w[2]), lerp(d[2], d[3], w[2]), w[1]);
+    let y1 = lerp(lerp(d[4], d[5], w[2]), lerp(d[6], d[7], w[2]), w[1]);
+    lerp(y0, y1, w[0])
 }
 
 /// Eight points of three floats (x y z x y z ...) as x, y and z vectors.
