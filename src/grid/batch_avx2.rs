@@ -4,12 +4,18 @@
 //! Why: once the scalar batch hides memory latency, its own instruction
 //! count limits it (about 45 M lookups/s on one core for a grid in cache).
 //! Eight lanes share every instruction of the floor, the index walk and the
-//! interpolation, and the corners come in by AVX2 gathers: 94-95 M/s in
-//! cache, 77-82 on pig.vdb and 35-58 on the 512^3 cloud, the latter two
-//! depending on the memory phase of the VM (six runs of `benches/grid.rs`,
-//! where the figures are printed). A
+//! interpolation: 97-98 M/s in cache, 84-88 on pig.vdb and 52-65 on the
+//! 512^3 cloud in three runs of `benches/grid.rs` (where the figures are
+//! printed); the two large grids depend on the memory phase of the VM. A
 //! software pipeline runs the first pass (floor, block slots, prefetches)
-//! [`AHEAD`] lane sets before the second (gathers, interpolation).
+//! [`AHEAD`] lane sets before the second (corner loads, interpolation).
+//!
+//! The corners come in by scalar loads into vectors (`load8`), not AVX2
+//! gathers: on this project's Zen 3 machine an eight-lane gather from
+//! cache took 3.3 ns against 2.2 ns for eight loads and inserts, and with
+//! loads the batch ran 5 % faster in cache and 3 % on pig.vdb. The two
+//! flat-index gathers of the first pass stay gathers: as loads they were
+//! slower on the cloud, whose index entries miss the cache.
 //!
 //! The arithmetic is the scalar path's, operation by operation (floor,
 //! `p - (float)floor(p)`, then `a + (b - a) * w` in the same order, no
@@ -19,12 +25,12 @@
 //! Two things keep the loop free of per-lane branches:
 //! - a lane in a tile or the background reads its constant from the copy
 //!   of the constants after the bricks in `values`, with offset 0, so every
-//!   corner is one unmasked gather from one base (two more gathers per lane
-//!   set, for the constants, had taken 8 % of the time in cache);
+//!   corner is one load from one base (two more gathers per lane set, for
+//!   the constants, had taken 8 % of the time in cache);
 //! - lanes whose corners span more than two blocks (22 of the 512 places
 //!   in a block) are collected and redone [`DEFERRED`] at a time, eight
 //!   per vector, by `redo_deferred`: every corner's slot and index first,
-//!   each prefetched, then the gathers. Redone one by one inside the loop,
+//!   each prefetched, then the loads. Redone one by one inside the loop,
 //!   with the branches of the scalar path and misses on blocks nobody had
 //!   prefetched, those 4 % of lanes took a third of the time on the cloud
 //!   (45 against 70 M/s with them skipped).
@@ -119,6 +125,12 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
             }
         }
         if j < sets {
+            // The points 16 lane sets ahead (96 bytes a set): the hardware
+            // prefetcher alone let their loads miss while the memory was
+            // busy with corners (cloud: 8 % faster with these two hints).
+            let ahead = points.as_ptr().wrapping_add(8 * (j + 16)) as *const u8;
+            prefetch_line(ahead);
+            prefetch_line(ahead.wrapping_add(64));
             *r = first_pass(g, &c, &points[8 * j..]);
         }
     }
@@ -132,7 +144,7 @@ pub(super) unsafe fn sample(g: &Grid<f32>, points: &[Vec3], out: &mut [f32]) {
 /// `out[j] = sample_index(points[j])` for the lanes `which` whose corners
 /// span four or eight blocks, eight lanes per vector: first every corner's
 /// slot (one flat-index gather per corner) and value index, with a
-/// prefetch of each, then the value gathers and interpolation.
+/// prefetch of each, then the value loads and interpolation.
 ///
 /// # Safety
 /// As for [`sample`]; each of `which` is below `points.len()`, and there
@@ -223,17 +235,7 @@ unsafe fn redo_deferred(
     }
     for q in 0..groups {
         // SAFETY: each index is a value of `values`, as in `second_pass`.
-        let d = &corners[q];
-        let d = [
-            _mm256_i32gather_ps::<4>(values, d[0]),
-            _mm256_i32gather_ps::<4>(values, d[1]),
-            _mm256_i32gather_ps::<4>(values, d[2]),
-            _mm256_i32gather_ps::<4>(values, d[3]),
-            _mm256_i32gather_ps::<4>(values, d[4]),
-            _mm256_i32gather_ps::<4>(values, d[5]),
-            _mm256_i32gather_ps::<4>(values, d[6]),
-            _mm256_i32gather_ps::<4>(values, d[7]),
-        ];
+        let d = load8(values, &corners[q]);
         let mut r = [0f32; 8];
         _mm256_storeu_ps(r.as_mut_ptr(), interpolate(d, weights[q]));
         for (l, &j) in lanes[q].iter().enumerate() {
@@ -301,26 +303,49 @@ unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
             _mm256_add_epi32(_mm256_slli_epi32::<9>(index(s)), v),
         )
     };
-    let mut offsets = [0i32; 16];
-    _mm256_storeu_si256(offsets.as_mut_ptr() as *mut __m256i, at(s, v));
-    _mm256_storeu_si256(offsets.as_mut_ptr().add(8) as *mut __m256i, at(sn, vn));
+    // Each lane's lines in its own block: the near and far corner of the
+    // low x slab (`a`, `a + 9`) and of the high one (`b`, `b + 9`). Where
+    // the cell crosses a y or z face, `a` steps back one voxel along that
+    // axis, so `a + 9` stays in the rows the cell uses instead of wrapping
+    // into the next row; where it crosses the x face, the high slab is the
+    // neighbour's. A fixed stencil (+0, +9, +64, +73) asked for lines no
+    // corner uses in a third of the lanes: the cloud's batched lookups
+    // ran 3-8 % slower, more where memory was slow.
+    let back = _mm256_or_si256(
+        _mm256_and_si256(edge[1], _mm256_set1_epi32(8)),
+        _mm256_and_si256(edge[2], _mm256_set1_epi32(1)),
+    );
+    let a = at(s, _mm256_sub_epi32(v, back));
+    let across = at(sn, vn);
+    let b = _mm256_blendv_epi8(_mm256_add_epi32(a, _mm256_set1_epi32(64)), across, edge[0]);
+    let mut offsets = [0i32; 24];
+    _mm256_storeu_si256(offsets.as_mut_ptr() as *mut __m256i, a);
+    _mm256_storeu_si256(offsets.as_mut_ptr().add(8) as *mut __m256i, b);
+    _mm256_storeu_si256(offsets.as_mut_ptr().add(16) as *mut __m256i, across);
     let values = g.values.as_ptr();
-    let prefetch = |o: i32| prefetch_stencil(values.wrapping_add(o as usize));
-    for &o in &offsets[..8] {
-        prefetch(o);
+    let pair = |o: i32| {
+        let p = values.wrapping_add(o as usize);
+        prefetch_line(p);
+        prefetch_line(p.wrapping_add(9));
+    };
+    for lane in 0..8 {
+        pair(offsets[lane]);
+        pair(offsets[8 + lane]);
     }
-    // The block across a face only where a face is crossed (a third of
-    // the lanes; elsewhere it is the cell's own block).
-    let crossing = _mm256_or_si256(_mm256_or_si256(edge[0], edge[1]), edge[2]);
+    // The block across a y or z face where the cell crosses one (a
+    // quarter of the lanes): both its slabs.
+    let crossing = _mm256_or_si256(edge[1], edge[2]);
     let mut bits = _mm256_movemask_ps(_mm256_castsi256_ps(crossing)) as u32;
     while bits != 0 {
-        prefetch(offsets[8 + bits.trailing_zeros() as usize]);
+        prefetch_stencil(
+            values.wrapping_add(offsets[16 + bits.trailing_zeros() as usize] as usize),
+        );
         bits &= bits - 1;
     }
     Lanes { i, w, ok, s, sn }
 }
 
-/// Gathers the eight corners of each lane and interpolates; returns the
+/// Loads the eight corners of each lane and interpolates; returns the
 /// lanes whose corners span more than two blocks (a bit each), which the
 /// caller must redo.
 #[inline]
@@ -331,7 +356,7 @@ unsafe fn second_pass(g: &Grid<f32>, c: &Consts, l: &Lanes, out: &mut [f32]) -> 
     let edge =
         l.i.map(|v| _mm256_cmpeq_epi32(_mm256_and_si256(v, seven), seven));
     let v = voxel_offsets(l.i);
-    // SAFETY: every gather index is a value of `values`: for a brick lane,
+    // SAFETY: every corner index is a value of `values`: for a brick lane,
     // an offset below 512 of the brick its slot code names (each corner's
     // offset stays inside its block, as in `Grid::fetch_general`); for a
     // constant, its copy after the bricks (see `Grid::constants`).
@@ -368,12 +393,9 @@ unsafe fn second_pass(g: &Grid<f32>, c: &Consts, l: &Lanes, out: &mut [f32]) -> 
         // A constant's offset is 0.
         let base = _mm256_blendv_epi8(bs, bn, cross);
         let konst = _mm256_blendv_epi8(ks, kn, cross);
-        _mm256_i32gather_ps::<4>(
-            values,
-            _mm256_add_epi32(base, _mm256_andnot_si256(konst, off)),
-        )
+        _mm256_add_epi32(base, _mm256_andnot_si256(konst, off))
     };
-    let d = [
+    let ix = [
         corner(false, false, false),
         corner(false, false, true),
         corner(false, true, false),
@@ -383,6 +405,7 @@ unsafe fn second_pass(g: &Grid<f32>, c: &Consts, l: &Lanes, out: &mut [f32]) -> 
         corner(true, true, false),
         corner(true, true, true),
     ];
+    let d = load8(values, &ix);
     let r = _mm256_blendv_ps(_mm256_set1_ps(g.background), interpolate(d, l.w), l.ok);
     _mm256_storeu_ps(out.as_mut_ptr(), r);
     // Lanes across an edge or a corner (two or three axes at 7): their
@@ -396,6 +419,37 @@ unsafe fn second_pass(g: &Grid<f32>, c: &Consts, l: &Lanes, out: &mut [f32]) -> 
         _mm256_castps_si256(l.ok),
     );
     _mm256_movemask_ps(_mm256_castsi256_ps(multi)) as u32
+}
+
+/// The values at eight index vectors, by scalar loads (see the module
+/// docs for why not gathers).
+///
+/// # Safety
+/// Every lane of `ix` must index a value of `values`.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn load8(values: *const f32, ix: &[__m256i; 8]) -> [__m256; 8] {
+    let mut o = [[0u32; 8]; 8];
+    for k in 0..8 {
+        _mm256_storeu_si256(o[k].as_mut_ptr() as *mut __m256i, ix[k]);
+    }
+    let at = |i: u32| *values.add(i as usize);
+    let row = |o: &[u32; 8]| {
+        _mm256_set_m128(
+            _mm_setr_ps(at(o[4]), at(o[5]), at(o[6]), at(o[7])),
+            _mm_setr_ps(at(o[0]), at(o[1]), at(o[2]), at(o[3])),
+        )
+    };
+    [
+        row(&o[0]),
+        row(&o[1]),
+        row(&o[2]),
+        row(&o[3]),
+        row(&o[4]),
+        row(&o[5]),
+        row(&o[6]),
+        row(&o[7]),
+    ]
 }
 
 /// Trilinear interpolation of eight corners (ordered `[x][y][z]`) with

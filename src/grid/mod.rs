@@ -206,7 +206,7 @@ pub struct Grid<T: GridValue> {
     /// `constants[0]` is the background, then one entry per tile. They are
     /// also the tail of `values`, after the bricks (from `brick_count() *
     /// 512` on), so that the AVX2 batch reads a brick value or a constant
-    /// by one gather from one base (`batch_avx2`).
+    /// by one load from one base (`batch_avx2`).
     constants: Vec<T>,
     /// Top index origin and size in units of 128 voxels.
     top_origin: IVec3,
