@@ -4,9 +4,13 @@
 //! Why: once the scalar batch hides memory latency, its own instruction
 //! count limits it (about 45 M lookups/s on one core for a grid in cache).
 //! Eight lanes share every instruction of the floor, the index walk and the
-//! interpolation: 97-98 M/s in cache, 84-88 on pig.vdb and 52-65 on the
-//! 512^3 cloud in three runs of `benches/grid.rs` (where the figures are
-//! printed); the two large grids depend on the memory phase of the VM. A
+//! interpolation: 92-99 M/s in cache, 79-88 on pig.vdb and 40-65 on the
+//! 512^3 cloud in six runs of `benches/grid.rs` (where the figures are
+//! printed); the two large grids depend on the memory phase of the VM. On
+//! the cloud, points whose cell lies in one brick need 2.86 cache lines
+//! each and run at the random-line rate the memory gives (about 170 M
+//! lines/s in a fast phase): the loop is bound by lines, not
+//! instructions. A
 //! software pipeline runs the first pass (floor, block slots, prefetches)
 //! [`AHEAD`] lane sets before the second (corner loads, interpolation).
 //!

@@ -799,9 +799,9 @@ impl<T: GridValue> Grid<T> {
     /// per instruction (`batch_avx2`); otherwise [`BATCH_LANES`] points at
     /// a time through two scalar passes. Measured with `benches/grid.rs`
     /// (one core, random points, six runs whose spread is the VM's memory
-    /// phase): 35-58 M/s on the generated 512^3 cloud against 10-16 one at
-    /// a time, 77-82 (one run 49) against 15-46 on pig.vdb, 94-95 against
-    /// 62 in cache. Meant for
+    /// phase): 40-65 M/s on the generated 512^3 cloud against 11-16 one at
+    /// a time, 79-88 against 14-49 on pig.vdb, 92-99 against 57-62 in
+    /// cache. Meant for
     /// callers with many independent points at once, such as photons or
     /// rays traced in lockstep.
     ///
