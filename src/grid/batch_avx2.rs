@@ -49,7 +49,8 @@ use glam::Vec3;
 use std::arch::x86_64::*;
 
 /// Whether this grid can take the vector path: it has the flat index, and
-/// every gather index (a brick's values, a flat-index entry) fits an i32.
+/// every index the vectors compute (into `values`, loaded one lane at a
+/// time, or into the flat index, gathered) fits an i32.
 pub(super) fn usable(g: &Grid<f32>) -> bool {
     !g.flat.is_empty() && g.values.len() < i32::MAX as usize && g.flat.len() < i32::MAX as usize
 }
