@@ -7,10 +7,10 @@
 //! interpolation: 92-99 M/s in cache, 79-88 on pig.vdb and 40-65 on the
 //! 512^3 cloud in six runs of `benches/grid.rs` (where the figures are
 //! printed); the two large grids depend on the memory phase of the VM. On
-//! the cloud, points whose cell lies in one brick need 2.86 cache lines
-//! each and run at the random-line rate the memory gives (about 170 M
-//! lines/s in a fast phase): the loop is bound by lines, not
-//! instructions. A
+//! the cloud the loop waits on memory, about one random 4 KiB page a
+//! point (a brick is 2 KiB in one page): a brick layout with fewer cache
+//! lines per cell (2.33 against 2.86) was no faster there (see
+//! ARCHITECTURE.md). A
 //! software pipeline runs the first pass (floor, block slots, prefetches)
 //! [`AHEAD`] lane sets before the second (corner loads, interpolation).
 //!
