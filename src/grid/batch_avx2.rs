@@ -209,10 +209,7 @@ unsafe fn redo_deferred(
             for (h, v) in [i[a], _mm256_add_epi32(i[a], one)].into_iter().enumerate() {
                 let t = _mm256_sub_epi32(_mm256_srai_epi32::<3>(v), c.origin[a]);
                 term[a][h] = _mm256_mullo_epi32(t, scale[a]);
-                inside[a][h] = _mm256_andnot_si256(
-                    _mm256_cmpgt_epi32(_mm256_setzero_si256(), t),
-                    _mm256_cmpgt_epi32(c.dims[a], t),
-                );
+                inside[a][h] = inside_axis(t, c.dims[a]);
                 voxel[a][h] = _mm256_sllv_epi32(
                     _mm256_and_si256(v, seven),
                     _mm256_set1_epi32(6 - 3 * a as i32),
@@ -255,7 +252,6 @@ unsafe fn redo_deferred(
 #[target_feature(enable = "avx2")]
 unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
     debug_assert!(points.len() >= 8);
-    let seven = _mm256_set1_epi32(7);
     let empty = _mm256_set1_epi32(EMPTY as i32);
     // SAFETY: 24 floats from here (8 points); the flat-index gathers are
     // masked to entries inside `flat_dims`.
@@ -278,7 +274,7 @@ unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
     let w = [0, 1, 2].map(|a| _mm256_sub_ps(pv[a], _mm256_cvtepi32_ps(i[a])));
     // Block coordinates in the flat index, and the block across the face
     // where the cell's last voxel is 7 (edge lanes are -1: t + 1 there).
-    let edge = i.map(|v| _mm256_cmpeq_epi32(_mm256_and_si256(v, seven), seven));
+    let edge = block_edges(i);
     let t = [0, 1, 2].map(|a| _mm256_sub_epi32(_mm256_srai_epi32::<3>(i[a]), c.origin[a]));
     let tn = [0, 1, 2].map(|a| _mm256_sub_epi32(t[a], edge[a]));
     let lin = |t: [__m256i; 3]| {
@@ -357,9 +353,7 @@ unsafe fn first_pass(g: &Grid<f32>, c: &Consts, points: &[Vec3]) -> Lanes {
 #[target_feature(enable = "avx2")]
 unsafe fn second_pass(g: &Grid<f32>, c: &Consts, l: &Lanes, out: &mut [f32]) -> u32 {
     debug_assert!(out.len() >= 8);
-    let seven = _mm256_set1_epi32(7);
-    let edge =
-        l.i.map(|v| _mm256_cmpeq_epi32(_mm256_and_si256(v, seven), seven));
+    let edge = block_edges(l.i);
     let v = voxel_offsets(l.i);
     // SAFETY: every corner index is a value of `values`: for a brick lane,
     // an offset below 512 of the brick its slot code names (each corner's
@@ -528,12 +522,27 @@ fn index(s: __m256i) -> __m256i {
 #[inline]
 #[target_feature(enable = "avx2")]
 fn inside_lanes(t: [__m256i; 3], dims: [__m256i; 3]) -> __m256i {
-    let zero = _mm256_setzero_si256();
-    let mut m = _mm256_set1_epi32(-1);
-    for a in 0..3 {
-        let below = _mm256_cmpgt_epi32(dims[a], t[a]);
-        let negative = _mm256_cmpgt_epi32(zero, t[a]);
-        m = _mm256_and_si256(m, _mm256_andnot_si256(negative, below));
-    }
-    m
+    _mm256_and_si256(
+        _mm256_and_si256(inside_axis(t[0], dims[0]), inside_axis(t[1], dims[1])),
+        inside_axis(t[2], dims[2]),
+    )
+}
+
+/// Lanes where `0 <= t < dim` (one axis of [`inside_lanes`]).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn inside_axis(t: __m256i, dim: __m256i) -> __m256i {
+    _mm256_andnot_si256(
+        _mm256_cmpgt_epi32(_mm256_setzero_si256(), t),
+        _mm256_cmpgt_epi32(dim, t),
+    )
+}
+
+/// Per axis, the lanes where the cell crosses a face of its 8^3 block:
+/// where its low corner is the block's last voxel (`Grid`'s `block_edge`).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn block_edges(i: [__m256i; 3]) -> [__m256i; 3] {
+    let seven = _mm256_set1_epi32(7);
+    i.map(|v| _mm256_cmpeq_epi32(_mm256_and_si256(v, seven), seven))
 }
