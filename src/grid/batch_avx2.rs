@@ -10,9 +10,9 @@
 //! the cloud the loop waits on memory, about one random 4 KiB page a
 //! point (a brick is 2 KiB in one page): a brick layout with fewer cache
 //! lines per cell (2.33 against 2.86) was no faster there (see
-//! ARCHITECTURE.md). A
-//! software pipeline runs the first pass (floor, block slots, prefetches)
-//! [`AHEAD`] lane sets before the second (corner loads, interpolation).
+//! ARCHITECTURE.md). A software pipeline runs the first pass (floor, block
+//! slots, prefetches) [`AHEAD`] lane sets before the second (corner loads,
+//! interpolation).
 //!
 //! The corners come in by scalar loads into vectors (`load8`), not AVX2
 //! gathers: on this project's Zen 3 machine an eight-lane gather from

@@ -801,9 +801,8 @@ impl<T: GridValue> Grid<T> {
     /// (one core, random points, six runs whose spread is the VM's memory
     /// phase): 40-65 M/s on the generated 512^3 cloud against 11-16 one at
     /// a time, 79-88 against 14-49 on pig.vdb, 92-99 against 57-62 in
-    /// cache. Meant for
-    /// callers with many independent points at once, such as photons or
-    /// rays traced in lockstep.
+    /// cache. Meant for callers with many independent points at once, such
+    /// as photons or rays traced in lockstep.
     ///
     /// # Panics
     /// If `points` and `out` differ in length.
