@@ -33,10 +33,11 @@ const HUGE_PAGE: usize = 1 << 21;
 /// a buffer of 2 MiB or more can start on a 2 MiB boundary: then every
 /// 2 MiB of it can be a huge page (`advise_huge_pages`), where a `Vec`'s
 /// allocation starts anywhere and its unaligned head and tail fall back to
-/// 4 KiB pages. Each 4 KiB page costs a fault at first touch, about
-/// 3.4 µs here against 0.25 ms for a whole 2 MiB page, which made the
-/// loader's copy of pig.vdb's 6 MiB take 4.2 ms instead of 1.8 in half of
-/// the loads.
+/// 4 KiB pages (pig.vdb: 4 of its 5.95 MiB of bricks were huge pages, now
+/// all 6; the 512^3 cloud: 18 of 20.5, now 20). Each 4 KiB page costs a
+/// fault at first touch (about 3.4 µs here, against 0.25 ms for a whole
+/// 2 MiB page), and lookups miss the TLB more often in 4 KiB pages: loads
+/// in a fresh process ran about 1 ms faster, lookups within the noise.
 pub struct BrickValues<T> {
     ptr: NonNull<Block<T>>,
     /// Blocks allocated.
