@@ -112,6 +112,10 @@ pub(crate) mod bridge {
     }
 }
 
+// SAFETY: a `LoadedGrid` owns its OpenVDB grid alone (nothing else holds
+// the grid's pointer), so it may be destroyed on any thread.
+unsafe impl Send for bridge::LoadedGrid {}
+
 impl Default for bridge::GridInfo {
     fn default() -> Self {
         Self {
