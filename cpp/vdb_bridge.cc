@@ -156,13 +156,12 @@ template <typename GridT> void layout_of(const GridT& grid, GridLayout& out) {
     Ch::put(tmp, bg);
     for (uint32_t i = 0; i < N; ++i) out.background.push_back(tmp[i]);
     auto tile = [&](const Coord& c, uint8_t level, bool active, const ValueT& v) {
-        Ch::put(tmp, v);
-        out.tile_origins.push_back(c.x());
-        out.tile_origins.push_back(c.y());
-        out.tile_origins.push_back(c.z());
-        out.tile_levels.push_back(level);
-        out.tile_active.push_back(active);
-        for (uint32_t i = 0; i < N; ++i) out.tile_values.push_back(tmp[i]);
+        TileRecord r{};
+        r.origin = {c.x(), c.y(), c.z()};
+        r.level = level;
+        r.active = active;
+        Ch::put(r.value.data(), v);
+        out.tiles.push_back(r);
     };
     // An internal node's tiles straight from its table and masks: the
     // value iterators took about 15 ns an entry, 1-2 ms of a load, for the

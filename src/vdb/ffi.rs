@@ -67,10 +67,20 @@ pub(crate) mod bridge {
         channels: u32,
         leaf_count: u64,
         background: Vec<f32>,
-        tile_origins: Vec<i32>,
-        tile_levels: Vec<u8>,
-        tile_active: Vec<bool>,
-        tile_values: Vec<f32>,
+        tiles: Vec<TileRecord>,
+    }
+
+    /// A tile of the root or an internal node: its origin, level (1: 8^3
+    /// voxels, 2: 128^3, 3: 4096^3), whether it is active, and its value
+    /// (`channels` floats, the rest 0). One record a tile, not one entry
+    /// in each of several arrays: every `push_back` onto a Rust `Vec` from
+    /// C++ is several calls across the bridge.
+    #[derive(Debug, Clone, Copy)]
+    struct TileRecord {
+        origin: [i32; 3],
+        level: u8,
+        active: bool,
+        value: [f32; 3],
     }
 
     /// OpenVDB's own read of one grid, for the load benchmark.

@@ -220,7 +220,7 @@ impl VdbFile {
         let values = unsafe {
             // Room for the grid's constants after the bricks (one per
             // tile and the background: `Grid::from_parts` appends them).
-            let constants = layout.tile_levels.len() + 1;
+            let constants = layout.tiles.len() + 1;
             BrickValues::<T>::from_fill(n, constants, |ptr, len| {
                 bridge::copy_leaves(&loaded, &mut origins, ptr, len, &mut masks)
             })
@@ -273,16 +273,14 @@ fn parts_from_layout<T: GridValue>(
         .map(|c| c.try_into().unwrap())
         .collect();
     let n = T::CHANNELS;
-    let tiles = (0..d.tile_levels.len())
-        .map(|t| Tile {
-            origin: IVec3::new(
-                d.tile_origins[3 * t],
-                d.tile_origins[3 * t + 1],
-                d.tile_origins[3 * t + 2],
-            ),
-            level: d.tile_levels[t],
-            value: T::from_slice(&d.tile_values[n * t..n * (t + 1)]),
-            active: d.tile_active[t],
+    let tiles = d
+        .tiles
+        .iter()
+        .map(|r| Tile {
+            origin: IVec3::from_array(r.origin),
+            level: r.level,
+            value: T::from_slice(&r.value[..n]),
+            active: r.active,
         })
         .collect();
     GridParts {
