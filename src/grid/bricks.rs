@@ -81,8 +81,9 @@ impl<T: GridValue> BrickValues<T> {
         }
         let blocks = whole_huge_pages::<T>(blocks);
         let layout = block_layout::<T>(blocks);
-        // SAFETY: the size is nonzero (blocks > cap >= 0 and a block is not
-        // zero-sized: NO_PADDING makes it 512 values of a nonzero type).
+        // SAFETY: the size is nonzero: blocks > cap >= 0, and a block is
+        // 512 values of a `GridValue`, a sealed trait whose types (f32,
+        // Vec3) are not zero-sized.
         let raw = unsafe { alloc(layout) };
         let Some(ptr) = NonNull::new(raw.cast::<Block<T>>()) else {
             handle_alloc_error(layout)
@@ -150,9 +151,20 @@ impl<T: GridValue> BrickValues<T> {
         self.len += 1;
     }
 
+    /// Appends `values`, growing the allocation as `Vec` does (at least
+    /// doubling it), so that appending a brick at a time stays linear.
     pub fn extend_from_slice(&mut self, values: &[T]) {
-        self.reserve_blocks((self.len + values.len()).div_ceil(BRICK_VOXELS));
+        let need = (self.len + values.len()).div_ceil(BRICK_VOXELS);
+        if need > self.cap {
+            self.reserve_blocks(need.max(2 * self.cap));
+        }
         self.extend(values.iter().copied());
+    }
+
+    /// Room for `additional` more values, and no more (beyond rounding to
+    /// whole bricks and huge pages).
+    pub fn reserve_exact(&mut self, additional: usize) {
+        self.reserve_blocks((self.len + additional).div_ceil(BRICK_VOXELS));
     }
 
     /// Bytes allocated.
@@ -171,16 +183,21 @@ impl<T> Drop for BrickValues<T> {
     }
 }
 
-/// `blocks`, or more to end on a 2 MiB boundary where that adds at most
-/// 1 MiB and an eighth: the last 2 MiB can then be a huge page too, instead
-/// of up to 512 pages of 4 KiB, each a fault (pig.vdb's 5.95 MiB of bricks
-/// had 1.95 MiB of them).
+/// `blocks`, or more to end on a 2 MiB boundary where that adds no more
+/// than 1 MiB and no more than an eighth of the size: the last 2 MiB can
+/// then be a huge page too, instead of up to 512 pages of 4 KiB, each a
+/// fault (pig.vdb's 5.95 MiB of bricks had 1.95 MiB of them). Only where
+/// the boundary is a whole number of blocks: always for `f32` bricks
+/// (2 KiB), for `Vec3` bricks (6 KiB) only at multiples of 6 MiB.
 fn whole_huge_pages<T>(blocks: usize) -> usize {
     let block = std::mem::size_of::<Block<T>>();
-    let Some(bytes) = blocks.checked_mul(block) else {
+    let Some(up) = blocks
+        .checked_mul(block)
+        .and_then(|b| b.checked_next_multiple_of(HUGE_PAGE))
+    else {
         return blocks;
     };
-    let up = bytes.next_multiple_of(HUGE_PAGE);
+    let bytes = blocks * block;
     if up - bytes <= (HUGE_PAGE / 2).min(bytes / 8) && up % block == 0 {
         up / block
     } else {
@@ -375,5 +392,27 @@ mod tests {
         assert_eq!(f[1499 * 512 + 511], (1500 * 512 - 1) as f32 * 0.5);
         assert_eq!(f.as_ptr() as usize % HUGE_PAGE, 0);
         assert_eq!(f.capacity_bytes(), (1500 + 2) * 2048);
+    }
+
+    #[test]
+    fn appending_a_brick_at_a_time_grows_geometrically() {
+        // As the generator appends: a handful of reallocations, not one a
+        // brick (which made appending quadratic).
+        let mut v = BrickValues::<f32>::new();
+        let brick = [1.5f32; 512];
+        let mut caps = Vec::new();
+        for _ in 0..100 {
+            v.extend_from_slice(&brick);
+            caps.push(v.capacity_bytes());
+        }
+        caps.dedup();
+        assert!(caps.len() <= 8, "{} reallocations", caps.len());
+        assert_eq!(v.len(), 100 * 512);
+        assert!(v.iter().all(|&x| x == 1.5));
+        // `reserve_exact` adds only what is asked, in whole bricks.
+        let mut w = BrickValues::<f32>::with_brick_capacity(3);
+        w.extend_from_slice(&[2.0; 3 * 512]);
+        w.reserve_exact(10);
+        assert_eq!(w.capacity_bytes(), 4 * 2048);
     }
 }

@@ -511,6 +511,7 @@ impl<T: GridValue> Grid<T> {
         grid.tiles = tiles;
         // The constants' copy after the bricks (see the field); the loader
         // reserves room for it, so this does not move the bricks.
+        grid.values.reserve_exact(grid.constants.len());
         grid.values.extend_from_slice(&grid.constants);
         for b in 0..grid.brick_origins.len() {
             let o = grid.brick_origins[b];

@@ -227,14 +227,23 @@ impl VdbFile {
         }
         .map_err(openvdb_err)?;
         // OpenVDB's tree is freed on another thread while this one builds
-        // the index (2-3 ms each on the 512^3 cloud); the scope joins it
-        // before returning, so no C++ runs past the call.
+        // the index (2-3 ms each on the 512^3 cloud). The thread is joined
+        // before returning: a scope alone waits for the closure, not for the
+        // thread's exit, and its thread-local destructors (TBB's, since
+        // OpenVDB frees a tree with `tbb::parallel_for`) would run after.
         std::thread::scope(|s| {
+            // If no thread can be made, `spawn_scoped` drops the closure,
+            // and `loaded` with it, before it returns.
             let free = std::thread::Builder::new().spawn_scoped(s, move || drop(loaded));
-            // If no thread could be made, `loaded` was dropped here.
-            drop(free);
             let parts = parts_from_layout::<T>(layout, origins, values, masks);
-            Grid::from_parts(parts).map_err(|e| Error::grid(&self.path, &d.name, e.to_string()))
+            let grid = Grid::from_parts(parts)
+                .map_err(|e| Error::grid(&self.path, &d.name, e.to_string()));
+            if let Ok(free) = free {
+                // A panic there would be a C++ destructor throwing, which
+                // terminates the process before this: nothing to report.
+                let _ = free.join();
+            }
+            grid
         })
     }
 
