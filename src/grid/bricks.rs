@@ -74,6 +74,19 @@ impl<T: GridValue> BrickValues<T> {
         v
     }
 
+    /// Blocks holding values (the last may be partial).
+    fn blocks_in_use(&self) -> usize {
+        self.len.div_ceil(BRICK_VOXELS)
+    }
+
+    /// Room for `blocks` blocks, growing as `Vec` does (at least doubling)
+    /// when it must grow, so that appending stays linear.
+    fn grow_for(&mut self, blocks: usize) {
+        if blocks > self.cap {
+            self.reserve_blocks(blocks.max(2 * self.cap));
+        }
+    }
+
     /// Grows the allocation to at least `blocks` blocks, moving the values.
     fn reserve_blocks(&mut self, blocks: usize) {
         if blocks <= self.cap {
@@ -89,7 +102,7 @@ impl<T: GridValue> BrickValues<T> {
             handle_alloc_error(layout)
         };
         advise_huge_pages(raw, layout.size());
-        let used = self.len.div_ceil(BRICK_VOXELS);
+        let used = self.blocks_in_use();
         // SAFETY: both allocations hold at least `used` blocks and do not
         // overlap; the old one is freed with the layout it was made with.
         unsafe {
@@ -133,9 +146,7 @@ impl<T: GridValue> BrickValues<T> {
         let k = self.len % BRICK_VOXELS;
         let b = self.len / BRICK_VOXELS;
         if k == 0 {
-            if b == self.cap {
-                self.reserve_blocks((2 * self.cap).max(1));
-            }
+            self.grow_for(b + 1);
             // SAFETY: block `b` is allocated (b < cap); a new block is
             // zeroed whole, so every block below `len.div_ceil(512)` is
             // initialised.
@@ -154,10 +165,7 @@ impl<T: GridValue> BrickValues<T> {
     /// Appends `values`, growing the allocation as `Vec` does (at least
     /// doubling it), so that appending a brick at a time stays linear.
     pub fn extend_from_slice(&mut self, values: &[T]) {
-        let need = (self.len + values.len()).div_ceil(BRICK_VOXELS);
-        if need > self.cap {
-            self.reserve_blocks(need.max(2 * self.cap));
-        }
+        self.grow_for((self.len + values.len()).div_ceil(BRICK_VOXELS));
         self.extend(values.iter().copied());
     }
 
@@ -191,13 +199,12 @@ impl<T> Drop for BrickValues<T> {
 /// (2 KiB), for `Vec3` bricks (6 KiB) only at multiples of 6 MiB.
 fn whole_huge_pages<T>(blocks: usize) -> usize {
     let block = std::mem::size_of::<Block<T>>();
-    let Some(up) = blocks
-        .checked_mul(block)
-        .and_then(|b| b.checked_next_multiple_of(HUGE_PAGE))
-    else {
+    let Some(bytes) = blocks.checked_mul(block) else {
         return blocks;
     };
-    let bytes = blocks * block;
+    let Some(up) = bytes.checked_next_multiple_of(HUGE_PAGE) else {
+        return blocks;
+    };
     if up - bytes <= (HUGE_PAGE / 2).min(bytes / 8) && up % block == 0 {
         up / block
     } else {
@@ -221,8 +228,8 @@ fn block_layout<T>(blocks: usize) -> Layout {
 
 impl<T: GridValue> Clone for BrickValues<T> {
     fn clone(&self) -> Self {
-        let mut v = Self::with_brick_capacity(self.len.div_ceil(BRICK_VOXELS));
-        let used = self.len.div_ceil(BRICK_VOXELS);
+        let used = self.blocks_in_use();
+        let mut v = Self::with_brick_capacity(used);
         // SAFETY: `used` initialised blocks here, room for them there.
         unsafe { std::ptr::copy_nonoverlapping(self.ptr.as_ptr(), v.ptr.as_ptr(), used) };
         v.len = self.len;
