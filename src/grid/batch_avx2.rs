@@ -4,13 +4,11 @@
 //! Why: once the scalar batch hides memory latency, its own instruction
 //! count limits it (about 45 M lookups/s on one core for a grid in cache).
 //! Eight lanes share every instruction of the floor, the index walk and the
-//! interpolation: 92-99 M/s in cache, 79-88 on pig.vdb and 40-65 on the
-//! 512^3 cloud in six runs of `benches/grid.rs` (where the figures are
-//! printed); the two large grids depend on the memory phase of the VM. On
-//! the cloud the loop waits on memory, about one random 4 KiB page a
-//! point (a brick is 2 KiB in one page): a brick layout with fewer cache
-//! lines per cell (2.33 against 2.86) was no faster there (see
-//! ARCHITECTURE.md). A software pipeline runs the first pass (floor, block
+//! interpolation, about twice the scalar batch's rate in cache (figures:
+//! `cargo bench --bench grid`; the measured ranges and what was tried are
+//! in ARCHITECTURE.md, "Batched lookups"). On grids larger than the
+//! caches the loop waits on memory: its loads and prefetches, not its
+//! instruction count, set the rate there. A software pipeline runs the first pass (floor, block
 //! slots, prefetches) [`AHEAD`] lane sets before the second (corner loads,
 //! interpolation).
 //!

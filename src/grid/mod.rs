@@ -798,11 +798,10 @@ impl<T: GridValue> Grid<T> {
     /// prefetches their corners' cache lines in between. For `f32` grids
     /// with the flat index on processors with AVX2 this runs eight points
     /// per instruction (`batch_avx2`); otherwise [`BATCH_LANES`] points at
-    /// a time through two scalar passes. Measured with `benches/grid.rs`
-    /// (one core, random points, six runs whose spread is the VM's memory
-    /// phase): 40-65 M/s on the generated 512^3 cloud against 11-16 one at
-    /// a time, 79-88 against 14-49 on pig.vdb, 92-99 against 57-62 in
-    /// cache. Meant for callers with many independent points at once, such
+    /// a time through two scalar passes. On the grids of
+    /// `benches/grid.rs` it runs about 1.6 times as fast as one lookup at
+    /// a time in cache and 2-5 times on the larger ones (the figures are
+    /// in ARCHITECTURE.md). Meant for callers with many independent points at once, such
     /// as photons or rays traced in lockstep.
     ///
     /// # Panics
