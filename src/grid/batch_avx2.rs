@@ -6,11 +6,11 @@
 //! Eight lanes share every instruction of the floor, the index walk and the
 //! interpolation, about twice the scalar batch's rate in cache (figures:
 //! `cargo bench --bench grid`; the measured ranges and what was tried are
-//! in ARCHITECTURE.md, "Batched lookups"). On grids larger than the
-//! caches the loop waits on memory: its loads and prefetches, not its
-//! instruction count, set the rate there. A software pipeline runs the first pass (floor, block
-//! slots, prefetches) [`AHEAD`] lane sets before the second (corner loads,
-//! interpolation).
+//! in ARCHITECTURE.md, "Batched lookups"). On grids larger than the caches
+//! the loop waits on memory: its loads and prefetches, not its instruction
+//! count, set the rate there. A software pipeline runs the first pass
+//! (floor, block slots, prefetches) [`AHEAD`] lane sets before the second
+//! (corner loads, interpolation).
 //!
 //! The corners come in by scalar loads into vectors (`load8`), not AVX2
 //! gathers: on this project's Zen 3 machine an eight-lane gather from

@@ -798,11 +798,11 @@ impl<T: GridValue> Grid<T> {
     /// prefetches their corners' cache lines in between. For `f32` grids
     /// with the flat index on processors with AVX2 this runs eight points
     /// per instruction (`batch_avx2`); otherwise [`BATCH_LANES`] points at
-    /// a time through two scalar passes. On the grids of
-    /// `benches/grid.rs` it runs about 1.6 times as fast as one lookup at
-    /// a time in cache and 2-5 times on the larger ones (the figures are
-    /// in ARCHITECTURE.md). Meant for callers with many independent points at once, such
-    /// as photons or rays traced in lockstep.
+    /// a time through two scalar passes. On the grids of `benches/grid.rs` it
+    /// runs about 1.6 times as fast as one lookup at a time in cache and 2-5
+    /// times on the larger ones (the figures are in ARCHITECTURE.md). Meant for
+    /// callers with many independent points at once, such as photons or rays
+    /// traced in lockstep.
     ///
     /// # Panics
     /// If `points` and `out` differ in length.
