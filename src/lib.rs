@@ -15,6 +15,7 @@ pub mod medium;
 pub mod phase;
 pub mod sampling;
 pub mod scene;
+pub mod stats;
 pub mod tracking;
 pub mod vdb;
 pub mod world;

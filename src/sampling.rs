@@ -1,8 +1,10 @@
 //! Random numbers and the warps that turn them into directions.
 //!
-//! [`Rng`] is a counter-based stream keyed by (seed, stream, index): a camera
-//! sample uses (seed, pixel, sample), a photon (seed, pass, photon index), so
-//! results never depend on which thread ran what.
+//! [`Rng`] is a counter-based stream keyed by (domain, seed, stream, index):
+//! a camera sample uses (Camera, seed, pixel, sample), a photon (Photon,
+//! seed, pass, photon index), so results never depend on which thread ran
+//! what, and the [`Domain`] tag keeps the streams of different uses apart
+//! even where their numbers coincide (pixel 7, sample 3 and pass 7, photon 3).
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -16,8 +18,37 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// What a random stream is used for. Mixed into every key, so that two uses
+/// never draw the same numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Domain {
+    /// Camera paths and camera-ray marches: (seed, pixel, sample).
+    Camera,
+    /// The camera ray's own transmittance, for alpha: (seed, pixel, sample).
+    Alpha,
+    /// Photon paths: (seed, pass, photon).
+    Photon,
+    /// Per-pass choices shared by a whole pass: (seed, pass, 0).
+    Pass,
+    /// Tests, benchmarks and tools.
+    Test,
+}
+
+impl Domain {
+    /// A distinct odd constant per domain.
+    fn tag(self) -> u64 {
+        match self {
+            Domain::Camera => 0x243F_6A88_85A3_08D3,
+            Domain::Alpha => 0x1319_8A2E_0370_7345,
+            Domain::Photon => 0xA409_3822_299F_31D1,
+            Domain::Pass => 0x082E_FA98_EC4E_6C89,
+            Domain::Test => 0x4528_21E6_38D0_1377,
+        }
+    }
+}
+
 /// PCG32 (O'Neill 2014) seeded from hashed keys: a deterministic stream per
-/// (seed, stream, index).
+/// (domain, seed, stream, index).
 #[derive(Debug, Clone)]
 pub struct Rng {
     state: u64,
@@ -25,7 +56,8 @@ pub struct Rng {
 }
 
 impl Rng {
-    pub fn new(seed: u64, stream: u64, index: u64) -> Self {
+    pub fn new(domain: Domain, seed: u64, stream: u64, index: u64) -> Self {
+        let seed = mix64(seed ^ mix64(domain.tag()));
         let a = mix64(seed ^ mix64(stream.wrapping_add(0x9E37_79B9_7F4A_7C15)));
         let b = mix64(a ^ mix64(index.wrapping_mul(0xD1B5_4A32_D192_ED03).wrapping_add(1)));
         let mut r = Rng {
@@ -59,6 +91,32 @@ impl Rng {
     pub fn next_vec2(&mut self) -> Vec2 {
         Vec2::new(self.next_f32(), self.next_f32())
     }
+}
+
+/// Russian roulette (Arvo & Kirk 1990) on a throughput or a photon's power,
+/// the one place every estimator plays it: when the largest channel of
+/// `beta` is below `threshold`, it survives with probability
+/// max/`threshold` and is divided by that probability (so its largest
+/// channel becomes `threshold`); otherwise it is left alone. Unbiased, and
+/// it keeps weights bounded by `threshold`. Returns false (and zeroes
+/// `beta`) when the path ends, also when `beta` is already zero or not a
+/// number.
+#[inline]
+pub fn roulette(beta: &mut Vec3, threshold: f32, rng: &mut Rng) -> bool {
+    let m = beta.max_element();
+    if m.is_nan() || m <= 0.0 {
+        *beta = Vec3::ZERO;
+        return false;
+    }
+    if m < threshold {
+        let survive = m / threshold;
+        if rng.next_f32() >= survive {
+            *beta = Vec3::ZERO;
+            return false;
+        }
+        *beta /= survive;
+    }
+    true
 }
 
 /// Two unit vectors completing `n` (unit) to an orthonormal basis, without

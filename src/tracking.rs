@@ -17,47 +17,13 @@
 //!   with a jittered start (for the ray-marching integrator).
 
 use crate::medium::{Media, MediumPoint};
-use crate::sampling::Rng;
+use crate::phase::PhaseFunction;
+use crate::sampling::{roulette, Rng};
+use crate::stats::{count_real, count_tentative};
 use crate::Rgb;
 use glam::Vec3;
-use std::cell::Cell;
 
-thread_local! {
-    static TENTATIVE: Cell<u64> = const { Cell::new(0) };
-    static LOOKUPS: Cell<u64> = const { Cell::new(0) };
-    static REAL: Cell<u64> = const { Cell::new(0) };
-}
-
-/// Tracking statistics of one thread, for benchmarks.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Counters {
-    /// Tentative collisions sampled (delta and ratio tracking).
-    pub tentative: u64,
-    /// Evaluations of the media (each reads every grid of the volumes).
-    pub lookups: u64,
-    /// Real collisions (scattering events, weighted absorption included).
-    pub real: u64,
-}
-
-/// The counters of the calling thread; reading resets them.
-pub fn take_counters() -> Counters {
-    Counters {
-        tentative: TENTATIVE.with(|c| c.replace(0)),
-        lookups: LOOKUPS.with(|c| c.replace(0)),
-        real: REAL.with(|c| c.replace(0)),
-    }
-}
-
-#[inline]
-fn bump(c: &'static std::thread::LocalKey<Cell<u64>>) {
-    c.with(|c| c.set(c.get() + 1));
-}
-
-/// Records a real collision.
-#[inline]
-fn count_real_collision() {
-    bump(&REAL);
-}
+pub use crate::stats::{take_counters, Counters};
 
 /// What the callback of [`sample_t_maj`] sees at a tentative collision. The
 /// optics are looked up only on demand ([`Collision::medium`]): with a
@@ -68,12 +34,17 @@ pub struct Collision<'a> {
     pub t: f32,
     /// World position.
     pub p: Vec3,
-    /// The majorant of sigma_t here, per world unit (≥ every channel of
-    /// sigma_t).
+    /// The rate tentative collisions are sampled at here, per world unit:
+    /// the majorant of sigma_t (≥ every channel), raised to the media's
+    /// emission rate where something may emit.
     pub sigma_maj: f32,
-    /// A minorant of sigma_t here (≤ every channel; 0 where none is known):
-    /// the extinction of the homogeneous control medium of decomposition
-    /// tracking.
+    /// The extinction of the homogeneous control medium of decomposition
+    /// tracking here: the minorant of sigma_t when the media have a control
+    /// ([`Media::control_albedo`]), and exactly 0 wherever they have none
+    /// (emissive media, volumes that differ in albedo or phase, a colour
+    /// grid). Never a bound alone: collisions of the control are decided
+    /// without looking the optics up, so they must carry the control's
+    /// albedo.
     pub sigma_c: f32,
     media: &'a Media,
 }
@@ -82,15 +53,16 @@ impl Collision<'_> {
     /// The optics here (summed over volumes): one lookup, counted.
     #[inline]
     pub fn medium(&self) -> MediumPoint {
-        bump(&LOOKUPS);
         self.media.eval(self.p)
     }
 }
 
 /// Samples tentative collisions along `o + t d` (`d` unit) in `[0, t_max)`
-/// with density `sigma_maj`, calling `f` at each; `f` returns false to stop.
-/// Returns true when the ray reached `t_max` (or left every volume) without
-/// `f` stopping it.
+/// and calls `f` at each; `f` returns false to stop. The rate is the
+/// majorant of σt, and at least the media's emission rate where the
+/// majorant grid says something may emit, so that emission is met also
+/// where σt = 0. Returns true when the ray reached `t_max` (or left every
+/// volume) without `f` stopping it.
 #[inline]
 pub fn sample_t_maj(
     media: &Media,
@@ -101,23 +73,35 @@ pub fn sample_t_maj(
     mut f: impl FnMut(&Collision, &mut Rng) -> bool,
 ) -> bool {
     let mut reached_end = true;
+    let control = media.control_albedo().is_some();
+    let emission_rate = media.emission_rate();
     media.for_each_segment(o, d, 0.0, t_max, |seg| {
-        if seg.max_density <= 0.0 {
+        let rate = if seg.emission > 0.0 {
+            seg.max_density.max(emission_rate)
+        } else {
+            seg.max_density
+        };
+        if rate <= 0.0 {
             return true;
         }
+        let sigma_c = if control {
+            seg.min_density.min(rate)
+        } else {
+            0.0
+        };
         let mut t = seg.t0;
         loop {
             // 1 - u is in (0, 1], so the logarithm is finite.
-            t -= (1.0 - rng.next_f32()).ln() / seg.max_density;
+            t -= (1.0 - rng.next_f32()).ln() / rate;
             if t >= seg.t1 {
                 return true;
             }
-            bump(&TENTATIVE);
+            count_tentative();
             let c = Collision {
                 t,
                 p: o + d * t,
-                sigma_maj: seg.max_density,
-                sigma_c: seg.min_density.min(seg.max_density),
+                sigma_maj: rate,
+                sigma_c,
                 media,
             };
             if !f(&c, rng) {
@@ -140,6 +124,10 @@ pub struct Step {
     /// The optics, when they were looked up (always without a control
     /// medium; emissive media never have one).
     pub medium: Option<MediumPoint>,
+    /// The phase function of the scattering event (meaningful when
+    /// `scatter`): with overlapping volumes one of theirs, chosen in
+    /// proportion to its scattering ([`Media::eval_scatter`]).
+    pub phase: PhaseFunction,
 }
 
 #[inline]
@@ -156,27 +144,33 @@ fn avg(c: Rgb) -> f32 {
 /// coefficients. Absorption is carried in the weight (σs instead of σt in
 /// the numerator) rather than ending the path.
 ///
-/// With a control medium (the media's albedo the same everywhere, and no
-/// emission: [`Media::control_albedo`]) the real part splits into the control's σc and the
-/// residual σt − σc (decomposition tracking, Kutz et al. 2017 §4). The
-/// control part has probability σc/σ̄ and weight σs/σt = the albedo: it
+/// With a control medium (`c.sigma_c > 0`: the media's albedo the same
+/// everywhere, and no emission) the real part splits into the control's σc
+/// and the residual σt − σc (decomposition tracking, Kutz et al. 2017 §4).
+/// The control part has probability σc/σ̄ and weight σs/σt = the albedo: it
 /// needs no lookup. Only the rest, a fraction 1 − σc/σ̄, reads the grids.
+/// Without a control σc is 0 and every collision is decided on the looked-up
+/// optics, so none of the scattering is lost.
 #[inline]
 pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
     let u = rng.next_f32();
+    let u_phase = rng.next_f32();
     let mut p_c = 0.0;
-    if let Some(albedo) = c.media.control_albedo() {
-        p_c = c.sigma_c / c.sigma_maj;
-        if u < p_c {
-            count_real_collision();
-            return Some(Step {
-                scatter: true,
-                weight: albedo,
-                medium: None,
-            });
+    if c.sigma_c > 0.0 {
+        if let (Some(albedo), Some(phase)) = (c.media.control_albedo(), c.media.control_phase()) {
+            p_c = c.sigma_c / c.sigma_maj;
+            if u < p_c {
+                count_real();
+                return Some(Step {
+                    scatter: true,
+                    weight: albedo,
+                    medium: None,
+                    phase,
+                });
+            }
         }
     }
-    let m = c.medium();
+    let (m, phase) = c.media.eval_scatter(c.p, u_phase);
     let sigma_t = m.sigma_t();
     let sigma_n = (Rgb::splat(c.sigma_maj) - sigma_t).max(Rgb::ZERO);
     let sigma_r = (sigma_t - Rgb::splat(c.sigma_c)).max(Rgb::ZERO);
@@ -189,22 +183,30 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
     let v = (u - p_c) / (1.0 - p_c) * rest;
     let p_rest = (1.0 - p_c) / rest;
     if v < wr || wn <= 0.0 {
-        count_real_collision();
-        // σs·(σr/σt): the residual's share of the scattering.
+        count_real();
+        // σs·(σr/σt): the residual's share of the scattering (all of it
+        // without a control).
         let share = Rgb::select(sigma_t.cmpgt(Rgb::ZERO), sigma_r / sigma_t, Rgb::ZERO);
         Some(Step {
             scatter: true,
             weight: m.sigma_s * share / (c.sigma_maj * wr * p_rest),
             medium: Some(m),
+            phase,
         })
     } else {
         Some(Step {
             scatter: false,
             weight: sigma_n / (c.sigma_maj * wn * p_rest),
             medium: Some(m),
+            phase,
         })
     }
 }
+
+/// Transmittance estimates below this play Russian roulette (survivors
+/// are scaled back up to it), so that a shadow ray deep in a dense medium
+/// stops after a few lookups instead of running to its end.
+pub const TRANSMITTANCE_RR: f32 = 0.1;
 
 /// Transmittance along `o + t d` over `[0, t_max)` by residual ratio
 /// tracking (Novák, Selle & Jarosz 2014, §4): on each stretch of constant
@@ -216,27 +218,14 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
 pub fn transmittance(media: &Media, o: Vec3, d: Vec3, t_max: f32, rng: &mut Rng) -> Rgb {
     let mut tr = Rgb::ONE;
     // Russian roulette on a small estimate; false when it ends at zero.
-    let roulette = |tr: &mut Rgb, rng: &mut Rng| {
-        let m = tr.max_element();
-        if m <= 0.0 {
-            *tr = Rgb::ZERO;
-            return false;
-        }
-        if m < 0.1 {
-            let survive = m / 0.1;
-            if rng.next_f32() >= survive {
-                *tr = Rgb::ZERO;
-                return false;
-            }
-            *tr /= survive;
-        }
-        true
-    };
+    let play = |tr: &mut Rgb, rng: &mut Rng| roulette(tr, TRANSMITTANCE_RR, rng);
     media.for_each_segment(o, d, 0.0, t_max, |seg| {
+        // The minorant is a valid control for transmittance whatever the
+        // albedo or emission: only extinction matters here.
         let sigma_c = seg.min_density.min(seg.max_density);
         if sigma_c > 0.0 {
             tr *= (-sigma_c * (seg.t1 - seg.t0)).exp();
-            if !roulette(&mut tr, rng) {
+            if !play(&mut tr, rng) {
                 return false;
             }
         }
@@ -250,12 +239,11 @@ pub fn transmittance(media: &Media, o: Vec3, d: Vec3, t_max: f32, rng: &mut Rng)
             if t >= seg.t1 {
                 return true;
             }
-            bump(&TENTATIVE);
-            bump(&LOOKUPS);
+            count_tentative();
             let m = media.eval(o + d * t);
             let ratio = Rgb::ONE - (m.sigma_t() - Rgb::splat(sigma_c)) / rate;
             tr *= ratio.clamp(Rgb::ZERO, Rgb::ONE);
-            if !roulette(&mut tr, rng) {
+            if !play(&mut tr, rng) {
                 return false;
             }
         }

@@ -61,13 +61,14 @@ fn load_volume(v: &VolumeDesc, warnings: &mut Vec<String>) -> Result<Option<Volu
             .as_deref()
             .map(|n| f.read_vec3(n))
             .transpose()?,
+        blackbody_filter: v.blackbody_filter,
     };
     let material = Material::from_desc(&v.material);
     let label = v.file.display().to_string();
     let vol = Volume::new(&label, density, extra, material, v.transform);
     if vol.is_none() {
         warnings.push(format!(
-            "'{}', grid '{}': the grid is empty; the volume is skipped",
+            "'{}', grid '{}': the grid is empty and nothing else in the volume emits; the volume is skipped",
             v.file.display(),
             v.density_grid
         ));

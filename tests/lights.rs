@@ -199,7 +199,12 @@ fn environment_map_sampling_matches_its_pdf() {
             32,
             64,
             |i| {
-                let mut rng = vdbphoton::sampling::Rng::new(4, 4, i as u64);
+                let mut rng = vdbphoton::sampling::Rng::new(
+                    vdbphoton::sampling::Domain::Test,
+                    4,
+                    4,
+                    i as u64,
+                );
                 env.sample(rng.next_vec2()).map(|(w, _, _)| w)
             },
             |w| env.pdf(w) as f64,
@@ -215,7 +220,7 @@ fn environment_map_sampling_matches_its_pdf() {
         let n = 400_000;
         let mut sum = 0.0f64;
         for i in 0..n {
-            let mut rng = vdbphoton::sampling::Rng::new(5, 5, i);
+            let mut rng = vdbphoton::sampling::Rng::new(vdbphoton::sampling::Domain::Test, 5, 5, i);
             let w = vdbphoton::sampling::sample_uniform_sphere(rng.next_vec2());
             sum += env.pdf(w) as f64 * 4.0 * std::f64::consts::PI;
         }
@@ -225,7 +230,7 @@ fn environment_map_sampling_matches_its_pdf() {
             sum / n as f64
         );
         for i in 0..1000 {
-            let mut rng = vdbphoton::sampling::Rng::new(6, 6, i);
+            let mut rng = vdbphoton::sampling::Rng::new(vdbphoton::sampling::Domain::Test, 6, 6, i);
             let (w, le, pdf) = env.sample(rng.next_vec2()).unwrap();
             assert!(
                 (pdf - env.pdf(w)).abs() <= 1e-3 * pdf,

@@ -3,7 +3,7 @@
 //! Planck's law).
 
 use vdbphoton::medium::blackbody::{blackbody_rgb_cycles, blackbody_rgb_planck};
-use vdbphoton::medium::{Material, Principled};
+use vdbphoton::medium::{Material, Principled, Temperature};
 use vdbphoton::scene::MaterialDesc;
 use vdbphoton::Rgb;
 
@@ -16,7 +16,7 @@ fn principled(f: impl FnOnce(&mut MaterialDesc)) -> Material {
 #[test]
 fn principled_defaults_and_absorption_colour() {
     let m = principled(|_| {});
-    let p = m.coefficients(2.0, None, None, None);
+    let p = m.coefficients(2.0, Temperature::Uniform, None, None);
     assert_eq!(p.sigma_s, Rgb::splat(1.0));
     assert_eq!(p.sigma_a, Rgb::splat(1.0));
     assert_eq!(p.emission, Rgb::ZERO);
@@ -35,7 +35,7 @@ fn principled_defaults_and_absorption_colour() {
             *absorption_color = Rgb::splat(0.25);
         }
     });
-    let p = m.coefficients(1.0, None, None, None);
+    let p = m.coefficients(1.0, Temperature::Uniform, None, None);
     assert!((p.sigma_s - Rgb::new(4.0, 2.5, 1.0)).abs().max_element() < 1e-6);
     assert!((p.sigma_a - Rgb::new(0.5, 1.25, 2.0)).abs().max_element() < 1e-6);
     // A white absorption colour absorbs nothing; negative density is 0.
@@ -47,8 +47,16 @@ fn principled_defaults_and_absorption_colour() {
             *absorption_color = Rgb::ONE;
         }
     });
-    assert_eq!(m.coefficients(3.0, None, None, None).sigma_a, Rgb::ZERO);
-    assert_eq!(m.coefficients(0.0, None, None, None).sigma_s, Rgb::ZERO);
+    assert_eq!(
+        m.coefficients(3.0, Temperature::Uniform, None, None)
+            .sigma_a,
+        Rgb::ZERO
+    );
+    assert_eq!(
+        m.coefficients(0.0, Temperature::Uniform, None, None)
+            .sigma_s,
+        Rgb::ZERO
+    );
     // The majorant bound holds for these.
     assert!(m.sigma_t_bound_per_density(None) >= 0.5);
 }
@@ -70,7 +78,7 @@ fn principled_blackbody_emission() {
     assert!(m.is_emissive());
     let t_attr = 2.5f32;
     let t = 1000.0 * t_attr as f64;
-    let p = m.coefficients(0.5, Some(t_attr), None, None);
+    let p = m.coefficients(0.5, Temperature::Attribute(t_attr), None, None);
     // intensity = σ_SB 1e-6 / π · T⁴, colour = the fit at 2500 K.
     let intensity = 5.670373e-8 * 1e-6 / std::f64::consts::PI * t.powi(4);
     // The fit's segment for 1902 ≤ T < 3315 K, evaluated in f64 here.
@@ -87,7 +95,8 @@ fn principled_blackbody_emission() {
     }
     // No temperature: no emission where T = 0 (blackbody intensity 1).
     assert_eq!(
-        m.coefficients(0.5, Some(0.0), None, None).emission,
+        m.coefficients(0.5, Temperature::Attribute(0.0), None, None)
+            .emission,
         Rgb::ZERO
     );
     // Constant emission only where there is density.
@@ -103,10 +112,15 @@ fn principled_blackbody_emission() {
         }
     });
     assert_eq!(
-        e.coefficients(0.3, None, None, None).emission,
+        e.coefficients(0.3, Temperature::Uniform, None, None)
+            .emission,
         Rgb::new(2.0, 1.0, 0.5)
     );
-    assert_eq!(e.coefficients(0.0, None, None, None).emission, Rgb::ZERO);
+    assert_eq!(
+        e.coefficients(0.0, Temperature::Uniform, None, None)
+            .emission,
+        Rgb::ZERO
+    );
 }
 
 #[test]

@@ -7,7 +7,7 @@ mod common;
 use common::chi2::chi2_test;
 use glam::{Vec2, Vec3};
 use vdbphoton::phase::PhaseFunction;
-use vdbphoton::sampling::Rng;
+use vdbphoton::sampling::{Domain, Rng};
 
 const SAMPLES: usize = 400_000;
 /// Significance of each test after a Šidák correction for the number of
@@ -46,7 +46,7 @@ fn run_chi2(name: &str, f: PhaseFunction) -> f64 {
         res_cos,
         24,
         |i| {
-            let mut rng = Rng::new(7, 1, i as u64);
+            let mut rng = Rng::new(Domain::Test, 7, 1, i as u64);
             f.sample(wo, rng.next_vec2()).map(|s| s.wi)
         },
         |w| f.pdf(wo, w) as f64,
@@ -77,7 +77,7 @@ fn chi2_rejects_a_wrong_sampler() {
         40,
         24,
         |i| {
-            let mut rng = Rng::new(7, 2, i as u64);
+            let mut rng = Rng::new(Domain::Test, 7, 2, i as u64);
             wrong.sample(wo, rng.next_vec2()).map(|s| s.wi)
         },
         |w| right.pdf(wo, w) as f64,
@@ -93,7 +93,7 @@ fn chi2_rejects_a_wrong_sampler() {
         40,
         24,
         |i| {
-            let mut rng = Rng::new(7, 3, i as u64);
+            let mut rng = Rng::new(Domain::Test, 7, 3, i as u64);
             PhaseFunction::hg(0.3)
                 .sample(wo, rng.next_vec2())
                 .map(|s| s.wi)
@@ -138,7 +138,7 @@ fn integrate(f: impl Fn(f64) -> f64) -> f64 {
 fn pdf_equals_eval_and_integrates_to_one() {
     let wo = Vec3::new(0.3, -0.5, 0.81).normalize();
     for (name, f) in cases() {
-        let mut rng = Rng::new(1, 2, 3);
+        let mut rng = Rng::new(Domain::Test, 1, 2, 3);
         for _ in 0..1000 {
             let wi = vdbphoton::sampling::sample_uniform_sphere(rng.next_vec2());
             assert_eq!(f.pdf(wo, wi), f.eval(wo, wi), "{name}");
@@ -187,7 +187,7 @@ fn positive_g_scatters_forward() {
     let mut forward = 0;
     let n = 10_000;
     for i in 0..n {
-        let mut rng = Rng::new(3, 3, i);
+        let mut rng = Rng::new(Domain::Test, 3, 3, i);
         let (new_dir, _) = f.sample_travel(d, rng.next_vec2()).unwrap();
         if new_dir.dot(d) > 0.0 {
             forward += 1;

@@ -12,7 +12,7 @@ use vdbphoton::integrator::{self, path, Settings};
 use vdbphoton::light::{Environment, Light};
 use vdbphoton::medium::{ExtraGrids, MajorantGrid, Material, Media, Volume};
 use vdbphoton::phase::PhaseFunction;
-use vdbphoton::sampling::Rng;
+use vdbphoton::sampling::{Domain, Rng};
 use vdbphoton::tracking::{optical_depth, sample_t_maj, transmittance};
 use vdbphoton::world::World;
 use vdbphoton::{generate, Rgb};
@@ -121,7 +121,7 @@ fn slab_transmittance_ratio_and_delta_tracking() {
     for c in 0..3 {
         let est: Vec<f64> = (0..n)
             .map(|i| {
-                let mut rng = Rng::new(1, 0, i);
+                let mut rng = Rng::new(Domain::Test, 1, 0, i);
                 transmittance(&media, o, d, f32::INFINITY, &mut rng)[c] as f64
             })
             .collect();
@@ -134,7 +134,7 @@ fn slab_transmittance_ratio_and_delta_tracking() {
     }
     // A finite t_max stops in the middle of the slab: T = exp(-σt·1).
     let mid: Vec<f64> = (0..n)
-        .map(|i| transmittance(&media, o, d, 3.0, &mut Rng::new(2, 0, i)).x as f64)
+        .map(|i| transmittance(&media, o, d, 3.0, &mut Rng::new(Domain::Test, 2, 0, i)).x as f64)
         .collect();
     let (m, se) = stats(&mid);
     assert!(
@@ -151,7 +151,7 @@ fn slab_transmittance_ratio_and_delta_tracking() {
     let n = 200_000;
     let mut escaped = 0u32;
     for i in 0..n {
-        let mut rng = Rng::new(3, 0, i);
+        let mut rng = Rng::new(Domain::Test, 3, 0, i);
         if sample_t_maj(&grey, o, d, f32::INFINITY, &mut rng, |c, rng| {
             rng.next_f32() >= c.medium().sigma_t().x / c.sigma_maj
         }) {
@@ -233,7 +233,7 @@ fn majorants_bound_every_lookup_on_random_grids() {
             raw(sigma * 0.5, sigma * 0.5, PhaseFunction::Isotropic),
         );
         let (lo, hi) = media.bounds().unwrap();
-        let mut rng = Rng::new(seed, 9, 9);
+        let mut rng = Rng::new(Domain::Test, seed, 9, 9);
         let mut collisions = 0;
         for _ in 0..300 {
             let target = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
@@ -281,7 +281,7 @@ fn majorant_grid_needs_fewer_lookups_than_a_global_bound() {
     // Rays from all around aimed at random points of the bounding box, as
     // camera and shadow rays are.
     let (lo, hi) = m.bounds();
-    let mut rng = Rng::new(5, 5, 5);
+    let mut rng = Rng::new(Domain::Test, 5, 5, 5);
     let (mut e_grid, mut e_residual, mut e_global) = (0.0f64, 0.0f64, 0.0f64);
     for _ in 0..4000 {
         let target = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
@@ -392,7 +392,7 @@ fn white_furnace() {
         for x in 0..12 {
             let mut v = [vec![], vec![], vec![]];
             for s in 0..settings.spp {
-                let mut rng = Rng::new(settings.seed, (y * 12 + x) as u64, s as u64);
+                let mut rng = Rng::new(Domain::Test, settings.seed, (y * 12 + x) as u64, s as u64);
                 let d = world
                     .camera
                     .direction(Vec2::new(x as f32, y as f32) + rng.next_vec2());
@@ -551,7 +551,13 @@ fn overlapping_volumes_add_their_extinction() {
     for c in 0..3 {
         let est: Vec<f64> = (0..n)
             .map(|i| {
-                transmittance(&media, o, Vec3::X, f32::INFINITY, &mut Rng::new(8, 0, i))[c] as f64
+                transmittance(
+                    &media,
+                    o,
+                    Vec3::X,
+                    f32::INFINITY,
+                    &mut Rng::new(Domain::Test, 8, 0, i),
+                )[c] as f64
             })
             .collect();
         let (m, se) = stats(&est);
@@ -569,8 +575,10 @@ fn overlapping_volumes_add_their_extinction() {
     // The phase function in the overlap is chosen in proportion to σs.
     let mut hg = 0;
     for i in 0..10_000 {
-        if media.phase_at(Vec3::new(0.7, 0.5, 0.0), Rng::new(1, 1, i).next_f32())
-            != PhaseFunction::Isotropic
+        if media.phase_at(
+            Vec3::new(0.7, 0.5, 0.0),
+            Rng::new(Domain::Test, 1, 1, i).next_f32(),
+        ) != PhaseFunction::Isotropic
         {
             hg += 1;
         }
@@ -594,7 +602,7 @@ fn residual_ratio_tracking_matches_quadrature_in_a_heterogeneous_cloud() {
     };
     let (with, without) = (mk(true), mk(false));
     let (lo, hi) = with.bounds().unwrap();
-    let mut rng = Rng::new(21, 0, 0);
+    let mut rng = Rng::new(Domain::Test, 21, 0, 0);
     let mut controlled = 0;
     for ray in 0..8 {
         let target = (lo + hi) * 0.5
@@ -612,7 +620,7 @@ fn residual_ratio_tracking_matches_quadrature_in_a_heterogeneous_cloud() {
             for c in 0..3 {
                 let est: Vec<f64> = (0..20_000)
                     .map(|i| {
-                        let mut r = Rng::new(22, ray, i);
+                        let mut r = Rng::new(Domain::Test, 22, ray, i);
                         transmittance(media, o, d, f32::INFINITY, &mut r)[c] as f64
                     })
                     .collect();
@@ -655,7 +663,7 @@ fn chromatic_medium_equals_its_grey_channels() {
         let n = 40_000;
         let mut v = [vec![], vec![], vec![]];
         for i in 0..n {
-            let mut rng = Rng::new(5, stream, i);
+            let mut rng = Rng::new(Domain::Test, 5, stream, i);
             let film = Vec2::new(rng.next_f32() * 8.0, rng.next_f32() * 6.0);
             let d = world.camera.direction(film);
             let r = path::trace(&world, &settings, world.camera.position(), d, &mut rng);

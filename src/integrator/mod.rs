@@ -9,7 +9,7 @@
 
 pub mod path;
 
-use crate::sampling::Rng;
+use crate::sampling::{Domain, Rng};
 use crate::tracking;
 use crate::world::World;
 use crate::Rgb;
@@ -123,14 +123,14 @@ pub fn render_pixel(world: &World, settings: &Settings, x: u32, y: u32) -> ([Rgb
     let mut acc = [Rgb::ZERO; 4];
     let mut tr_sum = 0.0f32;
     for s in 0..settings.spp {
-        let mut rng = Rng::new(settings.seed, stream, s as u64);
+        let mut rng = Rng::new(Domain::Camera, settings.seed, stream, s as u64);
         let film = Vec2::new(x as f32, y as f32) + rng.next_vec2();
         let o = world.camera.position();
         let d = world.camera.direction(film);
         let r = path::trace(world, settings, o, d, &mut rng);
         // Alpha: ratio-tracked transmittance of the camera ray, from a
         // stream of its own so it does not perturb the path.
-        let mut rng_t = Rng::new(settings.seed ^ 0xA1FA, stream, s as u64);
+        let mut rng_t = Rng::new(Domain::Alpha, settings.seed, stream, s as u64);
         let tr = tracking::transmittance(&world.media, o, d, f32::INFINITY, &mut rng_t);
         tr_sum += (tr.x + tr.y + tr.z) / 3.0;
         if r.l.is_finite() {

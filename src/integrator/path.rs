@@ -26,7 +26,7 @@
 use super::{SampleResult, Settings};
 use crate::light::Light;
 use crate::medium::Media;
-use crate::sampling::{power_heuristic, Rng};
+use crate::sampling::{power_heuristic, roulette, Rng};
 use crate::tracking::{self, sample_t_maj};
 use crate::world::World;
 use crate::Rgb;
@@ -150,7 +150,7 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
                 return false;
             }
             let wo = -ray_d;
-            let phase = media.phase_at(c.p, rng.next_f32());
+            let phase = step.phase;
             let ld = beta * direct_light(world, media, c.p, wo, &phase, rng);
             res.l += ld;
             if depth == 1 {
@@ -194,13 +194,8 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
         // Russian roulette on the throughput itself: survivors go on with
         // β = RR_THRESHOLD, so weights stay bounded (a floor on the
         // termination probability would let them grow without bound).
-        let m = beta.max_element();
-        if depth >= RR_DEPTH && m < RR_THRESHOLD {
-            let survive = m / RR_THRESHOLD;
-            if rng.next_f32() >= survive {
-                break;
-            }
-            beta /= survive;
+        if depth >= RR_DEPTH && !roulette(&mut beta, RR_THRESHOLD, rng) {
+            break;
         }
         if !beta.is_finite() {
             break;

@@ -14,6 +14,13 @@
 //! A lookup at index point `p` reads voxels `floor(p)` and `floor(p) + 1`
 //! along each axis, so the cell covering `[c0, c1)` takes the range of the
 //! voxels `c0 ..= c1`: padded by one voxel on the upper side.
+//!
+//! Emissive volumes also keep a bound of the emitted radiance per unit
+//! length in each cell (world units, max over channels). Emission does not
+//! depend on the extinction (flame glows where there is no smoke), so a
+//! cell whose density bound is 0 may still emit: the walk reports such
+//! cells, and the grid covers every emitting grid's voxels as well as the
+//! density's.
 
 use crate::grid::Grid;
 use glam::{IVec3, Vec3};
@@ -34,6 +41,18 @@ pub struct MajorantGrid {
     res: IVec3,
     /// `[min, max]` per cell, x fastest.
     range: Vec<[f32; 2]>,
+    /// Bound of the emitted radiance per unit length per cell (max over
+    /// channels, world units), x fastest; empty when nothing emits.
+    emission: Vec<f32>,
+}
+
+/// What [`MajorantGrid::build_emissive`] needs to know of a volume's
+/// emission: the index box (density index space, inclusive) of the voxels
+/// of every grid that emits, and a bound of the emitted radiance per unit
+/// length over the lookups in a cell (its lower corner and edge in voxels).
+pub struct EmissionBounds<'a> {
+    pub voxels: Option<(IVec3, IVec3)>,
+    pub bound: &'a dyn Fn(IVec3, i32) -> f32,
 }
 
 impl MajorantGrid {
@@ -44,7 +63,24 @@ impl MajorantGrid {
     /// Cells that reach outside the stored voxels see the background, which
     /// the minorant includes.
     pub fn build(density: &Grid<f32>, cell: i32) -> Option<Self> {
-        let (lo, hi) = density.stored_bounds()?;
+        Self::build_emissive(density, cell, None)
+    }
+
+    /// [`Self::build`] over the union of the density's stored voxels and the
+    /// emitting voxels of `emission`, with an emission bound per cell.
+    /// `None` when both are empty.
+    pub fn build_emissive(
+        density: &Grid<f32>,
+        cell: i32,
+        emission: Option<EmissionBounds>,
+    ) -> Option<Self> {
+        let stored = density.stored_bounds();
+        let emitting = emission.as_ref().and_then(|e| e.voxels);
+        let (lo, hi) = match (stored, emitting) {
+            (Some((a, b)), Some((c, d))) => (a.min(c), b.max(d)),
+            (Some(x), None) | (None, Some(x)) => x,
+            (None, None) => return None,
+        };
         let lo = lo - 1;
         let hi = hi + 1;
         let (origin, res) = if cell == 8 {
@@ -70,6 +106,25 @@ impl MajorantGrid {
                 }
             }
         }
+        let emission = match &emission {
+            None => Vec::new(),
+            Some(e) => {
+                let mut v = Vec::with_capacity(n);
+                for z in 0..res.z {
+                    for y in 0..res.y {
+                        for x in 0..res.x {
+                            let c0 = origin + IVec3::new(x, y, z) * cell;
+                            v.push((e.bound)(c0, cell).max(0.0));
+                        }
+                    }
+                }
+                if v.iter().all(|&b| b <= 0.0) {
+                    Vec::new()
+                } else {
+                    v
+                }
+            }
+        };
         Some(Self {
             origin: origin.as_vec3(),
             lower: lo.as_vec3(),
@@ -79,7 +134,26 @@ impl MajorantGrid {
             cell,
             res,
             range,
+            emission,
         })
+    }
+
+    /// Whether any cell may emit.
+    pub fn is_emissive(&self) -> bool {
+        !self.emission.is_empty()
+    }
+
+    /// The emission bound of cell `c` (0 outside, or where nothing emits).
+    pub fn cell_emission(&self, c: IVec3) -> f32 {
+        if self.emission.is_empty() || c.cmplt(IVec3::ZERO).any() || c.cmpge(self.res).any() {
+            return 0.0;
+        }
+        self.emission[((c.z * self.res.y + c.y) * self.res.x + c.x) as usize]
+    }
+
+    /// The index-space box of cell `c`: its lower corner and edge (voxels).
+    pub fn cell_box(&self, c: IVec3) -> (Vec3, f32) {
+        (self.origin + (c * self.cell).as_vec3(), self.cell as f32)
     }
 
     /// The index-space box outside which every lookup is background: the
@@ -102,7 +176,7 @@ impl MajorantGrid {
         self.range[((c.z * self.res.y + c.y) * self.res.x + c.x) as usize]
     }
 
-    /// Sets every lower bound to 0 (no control medium). For benchmarks.
+    /// Sets every lower bound to 0 (no minorant). For benchmarks and tests.
     pub fn clear_minorant(&mut self) {
         for r in &mut self.range {
             r[0] = 0.0;
@@ -223,7 +297,7 @@ impl MajorantGrid {
 }
 
 /// One stretch of a ray with constant bounds of the density (of σt, once
-/// `Media` has scaled them).
+/// `Media` has scaled them) and of the emission.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
     pub t0: f32,
@@ -232,6 +306,9 @@ pub struct Segment {
     pub max_density: f32,
     /// Lower bound along `[t0, t1)` (≥ 0).
     pub min_density: f32,
+    /// Upper bound of the emitted radiance per unit length along
+    /// `[t0, t1)` (max over channels, world units; 0 where nothing emits).
+    pub emission: f32,
 }
 
 /// Iterator over the cells of a [`MajorantGrid`] along a ray.
@@ -256,7 +333,9 @@ impl Iterator for Dda<'_> {
         }
         let g = self.grid;
         let c = self.cell;
-        let [lo, hi] = g.range[((c.z * g.res.y + c.y) * g.res.x + c.x) as usize];
+        let i = ((c.z * g.res.y + c.y) * g.res.x + c.x) as usize;
+        let [lo, hi] = g.range[i];
+        let emission = g.emission.get(i).copied().unwrap_or(0.0);
         // The axis whose boundary comes first.
         let a = if self.next_t.x < self.next_t.y {
             if self.next_t.x < self.next_t.z {
@@ -275,6 +354,7 @@ impl Iterator for Dda<'_> {
             t1,
             max_density: hi,
             min_density: lo,
+            emission,
         };
         self.t = t1;
         self.cell[a] += self.step[a];

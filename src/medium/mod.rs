@@ -16,16 +16,23 @@ pub mod blackbody;
 pub mod majorant;
 pub mod principled;
 
-use crate::grid::Grid;
+use crate::grid::{Grid, GridValue};
 use crate::phase::PhaseFunction;
 use crate::Rgb;
-use glam::{Affine3A, Vec3};
-pub use majorant::{MajorantGrid, Segment};
-pub use principled::{Material, Principled};
+use glam::{Affine3A, DAffine3, DVec3, IVec3, Vec3};
+pub use majorant::{EmissionBounds, MajorantGrid, Segment};
+pub use principled::{BlackbodyFilter, Material, Principled, Temperature};
 
 /// Voxels per majorant cell edge. One brick: tight bounds around the
 /// features of smoke, at 1/512 of the voxel count in cells.
 pub const MAJORANT_CELL: i32 = 8;
+
+/// Tentative collisions per voxel length that trackers sample where a
+/// volume emits, when the extinction's majorant is lower: emission is
+/// collected at tentative collisions (∫T·Le dt ≈ Σ T·Le/σ̄), so it needs a
+/// positive rate wherever it is nonzero, also where σt = 0 (flame without
+/// smoke). One per voxel resolves the emission's own detail.
+pub const EMISSION_RATE_PER_VOXEL: f32 = 1.0;
 
 /// The optical properties at a point (summed over overlapping volumes).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -52,8 +59,12 @@ pub struct Volume {
     temperature: Option<Grid<f32>>,
     flame: Option<Grid<f32>>,
     color: Option<Grid<Vec3>>,
-    /// Whether each secondary grid shares the density grid's index space
-    /// (Blender's caches do), so one index point serves all lookups.
+    /// Blackbody radiance per voxel of the temperature grid (same layout
+    /// and index space), for [`BlackbodyFilter::Emission`].
+    blackbody: Option<Grid<Vec3>>,
+    /// Whether each secondary grid (temperature, flame, colour) shares the
+    /// density grid's index space (Blender's caches do), so one index point
+    /// serves all lookups.
     shared_index: [bool; 3],
     material: Material,
     phase: PhaseFunction,
@@ -72,45 +83,107 @@ pub struct Volume {
     /// constant and the volume does not emit (what decomposition tracking's
     /// control medium needs).
     uniform_albedo: Option<Rgb>,
+    /// Shortest edge of a voxel, world units.
+    voxel_length: f32,
     world_bounds: (Vec3, Vec3),
 }
 
-/// The optional grids of a volume beside its density.
+/// The optional grids of a volume beside its density, and how its blackbody
+/// emission is filtered.
 #[derive(Debug, Clone, Default)]
 pub struct ExtraGrids {
     pub temperature: Option<Grid<f32>>,
     pub flame: Option<Grid<f32>>,
     pub color: Option<Grid<Vec3>>,
+    pub blackbody_filter: BlackbodyFilter,
 }
 
-fn affine_f32(m: glam::DAffine3) -> Affine3A {
+fn affine_f32(m: DAffine3) -> Affine3A {
     Affine3A::from_mat3_translation(m.matrix3.as_mat3(), m.translation.as_vec3())
+}
+
+/// The integer box (inclusive, padded by one voxel) that covers the image of
+/// the box `[lo, hi]` under `m`.
+fn map_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (IVec3, IVec3) {
+    let mut a = DVec3::splat(f64::INFINITY);
+    let mut b = DVec3::splat(f64::NEG_INFINITY);
+    for k in 0..8 {
+        let c = DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let w = m.transform_point3(c);
+        a = a.min(w);
+        b = b.max(w);
+    }
+    let clamp = |v: DVec3| v.clamp(DVec3::splat(-1e9), DVec3::splat(1e9));
+    (
+        clamp(a.floor()).as_ivec3() - 1,
+        clamp(b.ceil()).as_ivec3() + 1,
+    )
+}
+
+/// [min, max] of what lookups in the cell `[c0, c0 + cell)` of `g` can
+/// return: exact for brick-aligned cells of one brick, a bound otherwise.
+fn cell_range<T: GridValue>(g: &Grid<T>, c0: IVec3, cell: i32) -> [T; 2] {
+    if cell == MAJORANT_CELL && c0 & 7 == IVec3::ZERO {
+        g.block_lookup_range(c0)
+    } else {
+        g.range_in_box(c0, c0 + cell).unwrap_or([g.background(); 2])
+    }
+}
+
+/// A secondary grid seen from the density's index space: the range of its
+/// lookups over a density-index cell.
+struct Secondary<'a, T: GridValue> {
+    grid: &'a Grid<T>,
+    /// Its index space from the density's (None when shared).
+    from_density: Option<DAffine3>,
+}
+
+impl<T: GridValue> Secondary<'_, T> {
+    fn range(&self, c0: IVec3, cell: i32) -> [T; 2] {
+        match self.from_density {
+            None => cell_range(self.grid, c0, cell),
+            Some(m) => {
+                let (lo, hi) = map_box(m, c0.as_dvec3(), (c0 + cell).as_dvec3());
+                self.grid
+                    .range_in_box(lo, hi)
+                    .unwrap_or([self.grid.background(); 2])
+            }
+        }
+    }
 }
 
 impl Volume {
     /// Places `density` (and its companions) in the scene with `transform`
-    /// applied after the file's own transform. `None` for an empty grid.
+    /// applied after the file's own transform. `None` when nothing is
+    /// stored: an empty density grid and no emitting grid.
     pub fn new(
         label: &str,
         density: Grid<f32>,
         extra: ExtraGrids,
         material: Material,
-        transform: glam::DAffine3,
+        transform: DAffine3,
     ) -> Option<Self> {
-        let majorant = MajorantGrid::build(&density, MAJORANT_CELL)?;
-        let wfi = transform * density.world_from_index();
+        let dwfi = density.world_from_index();
+        let wfi = transform * dwfi;
         let world_from_index = affine_f32(wfi);
         let index_from_world = affine_f32(wfi.inverse());
-        let secondary = |g: Option<glam::DAffine3>| match g {
-            Some(m) => (
-                m == density.world_from_index(),
-                affine_f32((transform * m).inverse()),
-            ),
+        let secondary = |g: Option<DAffine3>| match g {
+            Some(m) => (m == dwfi, affine_f32((transform * m).inverse())),
             None => (true, index_from_world),
         };
         let (s0, x0) = secondary(extra.temperature.as_ref().map(|g| g.world_from_index()));
         let (s1, x1) = secondary(extra.flame.as_ref().map(|g| g.world_from_index()));
         let (s2, x2) = secondary(extra.color.as_ref().map(|g| g.world_from_index()));
+        let blackbody = match (&extra.temperature, extra.blackbody_filter) {
+            (Some(t), BlackbodyFilter::Emission) if material.has_blackbody() => t
+                .map_values("blackbody", |x| material.blackbody_radiance(x))
+                .ok(),
+            _ => None,
+        };
         let color_max = extra
             .color
             .as_ref()
@@ -127,6 +200,79 @@ impl Volume {
                 (!material.is_emissive()).then_some(albedo),
             )
         };
+        let majorant = if material.is_emissive() {
+            fn view(g: &Option<Grid<f32>>, dwfi: DAffine3) -> Option<Secondary<'_, f32>> {
+                g.as_ref().map(|g| Secondary {
+                    grid: g,
+                    from_density: (g.world_from_index() != dwfi)
+                        .then(|| g.world_from_index().inverse() * dwfi),
+                })
+            }
+            let temperature = view(&extra.temperature, dwfi);
+            let flame = view(&extra.flame, dwfi);
+            let bb = blackbody.as_ref().map(|g| Secondary {
+                grid: g,
+                from_density: temperature.as_ref().and_then(|t| t.from_density),
+            });
+            // Blackbody emission from a temperature grid reaches as far as
+            // that grid's voxels, whatever the density there.
+            let voxels = match (&extra.temperature, material.has_blackbody()) {
+                (Some(t), true) => t.stored_bounds().map(|(lo, hi)| {
+                    if t.world_from_index() == dwfi {
+                        (lo, hi)
+                    } else {
+                        map_box(
+                            dwfi.inverse() * t.world_from_index(),
+                            lo.as_dvec3(),
+                            hi.as_dvec3(),
+                        )
+                    }
+                }),
+                _ => None,
+            };
+            let plain = material.plain_emission_max();
+            let density_ref = &density;
+            let material_ref = &material;
+            let bound = move |c0: IVec3, cell: i32| -> f32 {
+                let dens_hi = cell_range(density_ref, c0, cell)[1].max(0.0);
+                let mut b = 0.0;
+                match material_ref {
+                    Material::Raw { .. } => b += plain * dens_hi,
+                    Material::Principled(_) => {
+                        if plain > 0.0 && dens_hi > 0.0 {
+                            b += plain
+                                * flame
+                                    .as_ref()
+                                    .map_or(1.0, |f| f.range(c0, cell)[1].max(0.0));
+                        }
+                        if material_ref.has_blackbody() {
+                            b += match (&bb, &temperature) {
+                                (Some(g), _) => g.range(c0, cell)[1].max_element().max(0.0),
+                                (None, Some(t)) => {
+                                    let [lo, hi] = t.range(c0, cell);
+                                    material_ref.blackbody_bound(lo, hi)
+                                }
+                                (None, None) if dens_hi > 0.0 => {
+                                    material_ref.blackbody_radiance(1.0).max_element().max(0.0)
+                                }
+                                (None, None) => 0.0,
+                            };
+                        }
+                    }
+                }
+                b
+            };
+            MajorantGrid::build_emissive(
+                &density,
+                MAJORANT_CELL,
+                Some(EmissionBounds {
+                    voxels,
+                    bound: &bound,
+                }),
+            )?
+        } else {
+            MajorantGrid::build(&density, MAJORANT_CELL)?
+        };
         // World bounds: the eight corners of the majorant box.
         let (lo, hi) = majorant.bounds();
         let mut wlo = Vec3::splat(f32::INFINITY);
@@ -141,6 +287,12 @@ impl Volume {
             wlo = wlo.min(w);
             whi = whi.max(w);
         }
+        let m = wfi.matrix3;
+        let voxel_length = m
+            .x_axis
+            .length()
+            .min(m.y_axis.length())
+            .min(m.z_axis.length()) as f32;
         let phase = material.phase();
         Some(Self {
             label: label.to_string(),
@@ -148,6 +300,7 @@ impl Volume {
             temperature: extra.temperature,
             flame: extra.flame,
             color: extra.color,
+            blackbody,
             shared_index: [s0, s1, s2],
             material,
             phase,
@@ -158,6 +311,7 @@ impl Volume {
             sigma_t_per_density,
             sigma_t_min_per_density,
             uniform_albedo,
+            voxel_length,
             world_bounds: (wlo, whi),
         })
     }
@@ -168,7 +322,8 @@ impl Volume {
 
     /// Rebuilds the majorant grid with cells of `cell` voxels (a cell larger
     /// than the grid gives one global majorant), without its minorant if
-    /// `minorant` is false. For benchmarks.
+    /// `minorant` is false. For benchmarks and tests of non-emissive
+    /// volumes (the emission bounds are dropped).
     pub fn set_majorant_cell(&mut self, cell: i32, minorant: bool) {
         if let Some(mut m) = MajorantGrid::build(&self.density, cell.max(1)) {
             if !minorant {
@@ -186,16 +341,32 @@ impl Volume {
     pub fn phase(&self) -> PhaseFunction {
         self.phase
     }
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
     pub fn world_from_index(&self) -> Affine3A {
         self.world_from_index
+    }
+    pub fn index_from_world(&self) -> Affine3A {
+        self.index_from_world
     }
     /// Upper bound of sigma_t per unit density (max over channels).
     pub fn sigma_t_per_density(&self) -> f32 {
         self.sigma_t_per_density
     }
+    /// Shortest voxel edge in world units.
+    pub fn voxel_length(&self) -> f32 {
+        self.voxel_length
+    }
 
     #[inline]
-    fn secondary(&self, g: &Option<Grid<f32>>, k: usize, pi: Vec3, p: Vec3) -> Option<f32> {
+    fn secondary<T: GridValue>(
+        &self,
+        g: &Option<Grid<T>>,
+        k: usize,
+        pi: Vec3,
+        p: Vec3,
+    ) -> Option<T> {
         g.as_ref().map(|g| {
             let q = if self.shared_index[k] {
                 pi
@@ -211,16 +382,15 @@ impl Volume {
     pub fn eval(&self, p: Vec3) -> MediumPoint {
         let pi = self.index_from_world.transform_point3(p);
         let density = self.density.sample_index(pi).max(0.0);
-        let temperature = self.secondary(&self.temperature, 0, pi, p);
+        let temperature = match self.secondary(&self.blackbody, 0, pi, p) {
+            Some(l) => Temperature::Radiance(l),
+            None => match self.secondary(&self.temperature, 0, pi, p) {
+                Some(t) => Temperature::Attribute(t),
+                None => Temperature::Uniform,
+            },
+        };
         let flame = self.secondary(&self.flame, 1, pi, p);
-        let color = self.color.as_ref().map(|g| {
-            let q = if self.shared_index[2] {
-                pi
-            } else {
-                self.secondary_from_world[2].transform_point3(p)
-            };
-            g.sample_index(q)
-        });
+        let color = self.secondary(&self.color, 2, pi, p);
         self.material
             .coefficients(density, temperature, flame, color)
     }
@@ -239,13 +409,10 @@ pub struct Media {
     /// (and none emits): then the minorant of the majorant grid is a
     /// homogeneous control medium whose collisions need no lookup.
     control: Option<(Rgb, PhaseFunction)>,
-}
-
-/// A ray in each volume's index space, with its clipped extent.
-#[derive(Debug, Clone, Copy)]
-struct IndexRay {
-    o: Vec3,
-    d: Vec3,
+    /// Tentative collisions per unit length where some volume emits
+    /// ([`EMISSION_RATE_PER_VOXEL`] per voxel of the finest emissive
+    /// volume); 0 when nothing emits.
+    emission_rate: f32,
 }
 
 impl Media {
@@ -258,7 +425,16 @@ impl Media {
                 .iter()
                 .all(|v| v.uniform_albedo == Some(a) && v.phase == ph)
         });
-        Self { volumes, control }
+        let emission_rate = volumes
+            .iter()
+            .filter(|v| v.majorant.is_emissive())
+            .map(|v| EMISSION_RATE_PER_VOXEL / v.voxel_length)
+            .fold(0.0, f32::max);
+        Self {
+            volumes,
+            control,
+            emission_rate,
+        }
     }
 
     /// The albedo every real collision has, when the volumes share one and
@@ -266,6 +442,17 @@ impl Media {
     #[inline]
     pub fn control_albedo(&self) -> Option<Rgb> {
         self.control.map(|(a, _)| a)
+    }
+    /// The phase function of the control medium (see [`Self::control_albedo`]).
+    #[inline]
+    pub fn control_phase(&self) -> Option<PhaseFunction> {
+        self.control.map(|(_, p)| p)
+    }
+    /// Tentative collisions per unit length that trackers need where
+    /// something emits (0 when nothing does).
+    #[inline]
+    pub fn emission_rate(&self) -> f32 {
+        self.emission_rate
     }
     pub fn volumes(&self) -> &[Volume] {
         &self.volumes
@@ -276,6 +463,10 @@ impl Media {
     pub fn is_empty(&self) -> bool {
         self.volumes.is_empty()
     }
+    /// Whether any volume emits.
+    pub fn is_emissive(&self) -> bool {
+        self.emission_rate > 0.0
+    }
 
     /// World-space bounding box of all volumes.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
@@ -285,9 +476,10 @@ impl Media {
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
     }
 
-    /// Summed optics at world point `p`.
+    /// Summed optics at world point `p` (one lookup, counted).
     #[inline]
     pub fn eval(&self, p: Vec3) -> MediumPoint {
+        crate::stats::count_lookup();
         match self.volumes.as_slice() {
             [v] => v.eval(p),
             vs => vs.iter().fold(MediumPoint::default(), |acc, v| {
@@ -301,39 +493,64 @@ impl Media {
         }
     }
 
-    /// The phase function at `p`: with overlapping volumes, one of theirs
-    /// chosen with probability proportional to its scattering there (a
-    /// one-sample estimate of the σs-weighted mixture), using `u`.
+    /// Summed optics at `p` and the phase function of a scattering event
+    /// there: with overlapping volumes, one of theirs chosen with
+    /// probability proportional to its scattering (a one-sample estimate of
+    /// the σs-weighted mixture), using `u`. One lookup (counted), no
+    /// allocation: the choice is made while the volumes are summed
+    /// (weighted reservoir sampling with one uniform number, rescaled at
+    /// each step).
+    #[inline]
+    pub fn eval_scatter(&self, p: Vec3, u: f32) -> (MediumPoint, PhaseFunction) {
+        crate::stats::count_lookup();
+        match self.volumes.as_slice() {
+            [v] => (v.eval(p), v.phase()),
+            vs => {
+                let mut acc = MediumPoint::default();
+                let mut phase = PhaseFunction::Isotropic;
+                let mut total = 0.0f32;
+                let mut u = u;
+                for v in vs {
+                    let m = v.eval(p);
+                    acc.sigma_a += m.sigma_a;
+                    acc.sigma_s += m.sigma_s;
+                    acc.emission += m.emission;
+                    let w = m.sigma_s.element_sum();
+                    if w <= 0.0 {
+                        continue;
+                    }
+                    total += w;
+                    let q = w / total;
+                    if u < q {
+                        phase = v.phase();
+                        u /= q;
+                    } else {
+                        u = (u - q) / (1.0 - q);
+                    }
+                    u = u.clamp(0.0, 1.0 - f32::EPSILON);
+                }
+                (acc, phase)
+            }
+        }
+    }
+
+    /// The phase function of a scattering event at `p` (see
+    /// [`Self::eval_scatter`]): no lookup with a control medium or a single
+    /// volume, one (counted) otherwise.
     pub fn phase_at(&self, p: Vec3, u: f32) -> PhaseFunction {
         if let Some((_, phase)) = self.control {
             return phase;
         }
         match self.volumes.as_slice() {
             [v] => v.phase(),
-            vs => {
-                let w: Vec<f32> = vs.iter().map(|v| v.eval(p).sigma_s.element_sum()).collect();
-                let total: f32 = w.iter().sum();
-                let mut x = u * total;
-                for (v, wi) in vs.iter().zip(&w) {
-                    if x < *wi {
-                        return v.phase();
-                    }
-                    x -= wi;
-                }
-                vs.iter()
-                    .zip(&w)
-                    .rev()
-                    .find(|(_, w)| **w > 0.0)
-                    .map(|(v, _)| v.phase())
-                    .unwrap_or(PhaseFunction::Isotropic)
-            }
+            _ => self.eval_scatter(p, u).1,
         }
     }
 
     /// Calls `f` for each stretch of the ray `o + t d` (`d` a unit world
     /// direction) within `[t0, t1)` that has a constant majorant of
-    /// sigma_t (per world unit, max over channels) and minorant (min over
-    /// channels), in order of `t`.
+    /// sigma_t (per world unit, max over channels), minorant (min over
+    /// channels) and emission bound, in order of `t`.
     /// Stretches where no volume is present are skipped; where volumes
     /// overlap, their bounds add. `f` returns false to stop.
     #[inline]
@@ -348,11 +565,9 @@ impl Media {
         match self.volumes.as_slice() {
             [] => {}
             [v] => {
-                let r = IndexRay {
-                    o: v.index_from_world.transform_point3(o),
-                    d: v.index_from_world.transform_vector3(d),
-                };
-                for s in v.majorant.walk(r.o, r.d, t0, t1) {
+                let io = v.index_from_world.transform_point3(o);
+                let id = v.index_from_world.transform_vector3(d);
+                for s in v.majorant.walk(io, id, t0, t1) {
                     let seg = Segment {
                         max_density: s.max_density * v.sigma_t_per_density,
                         min_density: s.min_density * v.sigma_t_min_per_density,
@@ -365,7 +580,7 @@ impl Media {
             }
             vs => {
                 // Merge the walks: between consecutive boundaries of any of
-                // them the summed majorant is constant.
+                // them the summed bounds are constant.
                 let mut walks: Vec<_> = vs
                     .iter()
                     .map(|v| {
@@ -381,6 +596,7 @@ impl Media {
                     let mut next_t = f32::INFINITY;
                     let mut maj = 0.0;
                     let mut min = 0.0;
+                    let mut emission = 0.0;
                     let mut any = false;
                     for (_, cur, (k_max, k_min)) in walks.iter() {
                         if let Some(s) = cur {
@@ -391,6 +607,7 @@ impl Media {
                                 next_t = next_t.min(s.t1);
                                 maj += s.max_density * k_max;
                                 min += s.min_density * k_min;
+                                emission += s.emission;
                             }
                         }
                     }
@@ -398,12 +615,13 @@ impl Media {
                         return;
                     }
                     if next_t > t
-                        && maj > 0.0
+                        && (maj > 0.0 || emission > 0.0)
                         && !f(Segment {
                             t0: t,
                             t1: next_t,
                             max_density: maj,
                             min_density: min,
+                            emission,
                         })
                     {
                         return;

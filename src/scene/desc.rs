@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use serde::Deserialize;
 
-pub use crate::medium::Principled;
+pub use crate::medium::{BlackbodyFilter, Principled};
 use crate::Rgb;
 
 /// A whole scene: what to render, from where, lit by what.
@@ -164,6 +164,9 @@ pub struct VolumeDesc {
     pub temperature_grid: Option<String>,
     pub flame_grid: Option<String>,
     pub color_grid: Option<String>,
+    /// How blackbody emission from the temperature grid is filtered between
+    /// voxels (`blackbody_interpolation`).
+    pub blackbody_filter: BlackbodyFilter,
     /// Scene transform, applied after the file's own index-to-world
     /// transform: `world = transform · file_transform · index`.
     pub transform: DAffine3,

@@ -13,8 +13,8 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use super::desc::{
-    affine_from_rows, compose_trs, CameraDesc, EnvironmentDesc, Integrator, LightDesc,
-    MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
+    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, EnvironmentDesc, Integrator,
+    LightDesc, MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
 };
 use super::error::{kp, PathSeg, ValidationError};
 use crate::Rgb;
@@ -140,8 +140,16 @@ struct VolumeIn {
     temperature_grid: Option<String>,
     flame_grid: Option<String>,
     color_grid: Option<String>,
+    blackbody_interpolation: Option<BlackbodyFilterIn>,
     transform: Option<TransformIn>,
     material: Option<MaterialIn>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum BlackbodyFilterIn {
+    Emission,
+    Temperature,
 }
 
 #[derive(Debug, Deserialize)]
@@ -425,6 +433,10 @@ impl VolumeIn {
             temperature_grid: self.temperature_grid,
             flame_grid: self.flame_grid,
             color_grid: self.color_grid,
+            blackbody_filter: match self.blackbody_interpolation {
+                None | Some(BlackbodyFilterIn::Emission) => BlackbodyFilter::Emission,
+                Some(BlackbodyFilterIn::Temperature) => BlackbodyFilter::Temperature,
+            },
             transform: match self.transform {
                 Some(t) => t.into_desc(&with(path, "transform"))?,
                 None => DAffine3::IDENTITY,

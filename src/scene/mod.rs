@@ -21,8 +21,8 @@ mod validate;
 use std::path::Path;
 
 pub use desc::{
-    affine_from_rows, compose_trs, euler_xyz_deg, CameraDesc, EnvironmentDesc, Integrator,
-    LightDesc, MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
+    affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, EnvironmentDesc,
+    Integrator, LightDesc, MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
 

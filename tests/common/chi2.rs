@@ -152,7 +152,12 @@ pub fn chi2_test_with(
                 } else {
                     2.0
                 };
-                let ph = p0 + (p1 - p0) * j as f64 / sub as f64;
+                // The end nodes sit just inside the bin: a density with a
+                // jump on a bin edge (an environment map's texel edge) is
+                // then integrated with its values in this bin, not with the
+                // neighbour's that rounding at the edge may give.
+                let x = (j as f64 / sub as f64).clamp(1e-5, 1.0 - 1e-5);
+                let ph = p0 + (p1 - p0) * x;
                 let w = Vec3::new((s * ph.cos()) as f32, (s * ph.sin()) as f32, cz as f32);
                 sum += wj * pdf(w);
             }

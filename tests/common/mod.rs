@@ -158,3 +158,40 @@ pub fn unit_box_grid() -> Grid<f32> {
     });
     Grid::from_parts(p).unwrap()
 }
+
+/// A grid named `name` holding `value` over `blocks` 8^3 blocks of voxels of
+/// edge `h` whose box starts at world point `lo` (voxel (0,0,0) centred at
+/// `lo + h/2`), stored as 8^3 tiles. Like [`unit_box_grid`], its trilinear
+/// ramps integrate to the sharp box along axis-aligned lines.
+pub fn const_box(name: &str, value: f32, lo: DVec3, h: f64, blocks: IVec3) -> Grid<f32> {
+    let xf = DAffine3::from_scale_rotation_translation(
+        DVec3::splat(h),
+        DQuat::IDENTITY,
+        lo + DVec3::splat(0.5 * h),
+    );
+    let mut p = GridParts::new(name, 0.0f32, xf);
+    for x in 0..blocks.x {
+        for y in 0..blocks.y {
+            for z in 0..blocks.z {
+                p.tiles.push(Tile {
+                    origin: IVec3::new(x, y, z) * 8,
+                    level: 1,
+                    value,
+                    active: true,
+                });
+            }
+        }
+    }
+    Grid::from_parts(p).unwrap()
+}
+
+/// A grid with nothing stored, with the transform of [`unit_box_grid`].
+pub fn empty_grid(name: &str) -> Grid<f32> {
+    let h = 2.0 / 128.0;
+    let xf = DAffine3::from_scale_rotation_translation(
+        DVec3::splat(h),
+        DQuat::IDENTITY,
+        DVec3::splat(-1.0 + 0.5 * h),
+    );
+    Grid::from_parts(GridParts::new(name, 0.0f32, xf)).unwrap()
+}
