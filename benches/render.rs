@@ -67,7 +67,7 @@ fn main() {
         let img = ImageRgb {
             width: r.width as usize,
             height: r.height as usize,
-            pixels: film.rgb,
+            pixels: film.mean_rgb(),
         };
         let m = compare(&img, &truth).unwrap();
         // Counts on one thread over a quarter of the rows.

@@ -44,6 +44,16 @@ impl Camera {
         self.position
     }
 
+    /// Image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Image height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
     /// The unit direction through film position `film` in pixels (x right,
     /// y down, (0,0) the top-left corner of the top-left pixel).
     pub fn direction(&self, film: Vec2) -> Vec3 {

@@ -6,6 +6,7 @@
 pub mod atomic;
 pub mod camera;
 pub mod error;
+pub mod film;
 pub mod generate;
 pub mod grid;
 pub mod image;
@@ -13,6 +14,8 @@ pub mod integrator;
 pub mod light;
 pub mod medium;
 pub mod phase;
+pub mod photon;
+pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod stats;

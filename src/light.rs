@@ -151,17 +151,10 @@ impl Light {
                 smooth,
             } => {
                 let mut ls = point_sample(position, p, intensity)?;
-                let cos = (-ls.wi).dot(axis);
-                if cos <= cos_half {
+                let falloff = spot_falloff((-ls.wi).dot(axis), cos_half, smooth);
+                if falloff <= 0.0 {
                     return None;
                 }
-                let t = cos - cos_half;
-                let falloff = if smooth > 0.0 && t < smooth {
-                    let x = t / smooth;
-                    x * x * (3.0 - 2.0 * x)
-                } else {
-                    1.0
-                };
                 ls.li *= falloff;
                 Some(ls)
             }
@@ -183,6 +176,172 @@ impl Light {
             }
             _ => (Rgb::ZERO, 0.0),
         }
+    }
+}
+
+/// A sphere around everything that can interact with light (the volumes'
+/// bounds): lights at infinity emit photons from a disk of its radius, and
+/// point lights aim at it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoundingSphere {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+impl BoundingSphere {
+    /// The sphere through the corners of the box `[lo, hi]`.
+    pub fn of_box(lo: Vec3, hi: Vec3) -> Self {
+        Self {
+            center: (lo + hi) * 0.5,
+            radius: ((hi - lo).length() * 0.5).max(1e-6),
+        }
+    }
+
+    /// A ray arriving from direction `w` (pointing away from the scene,
+    /// towards the source): its origin on the disk of the sphere's radius
+    /// perpendicular to `w`, outside the sphere, and the disk's area.
+    fn disk_ray(&self, w: Vec3, u: Vec2) -> (Vec3, f32) {
+        let (t, b) = sampling::coordinate_system(w);
+        let q = sampling::sample_uniform_disk_concentric(u) * self.radius;
+        let o = self.center + w * (2.0 * self.radius) + t * q.x + b * q.y;
+        (o, PI * self.radius * self.radius)
+    }
+}
+
+/// A photon leaving a light (pbrt-v4's `SampleLe`): where it starts, its
+/// unit direction of travel, and its power divided by the density of the
+/// sample (the estimate of the light's power this one sample makes).
+#[derive(Debug, Clone, Copy)]
+pub struct EmittedRay {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub power: Rgb,
+}
+
+impl Light {
+    /// The power (W) the light sends towards `bounds` as [`Self::sample_le`]
+    /// samples it (pbrt-v4's `Phi`): a sun through a disk of the sphere's
+    /// radius, a point light into the cone around the sphere (everywhere
+    /// when it is inside), a spot into its cone.
+    pub fn power(&self, bounds: BoundingSphere) -> Rgb {
+        let area = PI * bounds.radius * bounds.radius;
+        match *self {
+            Light::Sun { value, cos_max, .. } => {
+                if cos_max >= 1.0 {
+                    value * area
+                } else {
+                    value * (area * 2.0 * PI * (1.0 - cos_max))
+                }
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                intensity * point_cone(position, bounds).map_or(4.0 * PI, |c| 2.0 * PI * (1.0 - c))
+            }
+            Light::Spot {
+                intensity,
+                cos_half,
+                smooth,
+                ..
+            } => {
+                // ∫ falloff dω: full inside the inner cone, the smoothstep
+                // (mean ½ over its width) across the edge.
+                intensity * (2.0 * PI * ((1.0 - cos_half) - 0.5 * smooth))
+            }
+        }
+    }
+
+    /// Samples a photon leaving the light towards `bounds` from four
+    /// uniform numbers.
+    pub fn sample_le(&self, bounds: BoundingSphere, u: Vec2, v: Vec2) -> Option<EmittedRay> {
+        match *self {
+            Light::Sun {
+                dir,
+                value,
+                cos_max,
+                frame,
+            } => {
+                let (w, power_per_area) = if cos_max >= 1.0 {
+                    (dir, value)
+                } else {
+                    let l = sampling::sample_uniform_cone(v, cos_max);
+                    let w = (frame.0 * l.x + frame.1 * l.y + dir * l.z).normalize();
+                    (w, value / sampling::uniform_cone_pdf(cos_max))
+                };
+                let (o, area) = bounds.disk_ray(w, u);
+                Some(EmittedRay {
+                    o,
+                    d: -w,
+                    power: power_per_area * area,
+                })
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let (d, pdf) = match point_cone(position, bounds) {
+                    Some(cos_max) => {
+                        let axis = (bounds.center - position).normalize();
+                        let (t, b) = sampling::coordinate_system(axis);
+                        let l = sampling::sample_uniform_cone(u, cos_max);
+                        (
+                            (t * l.x + b * l.y + axis * l.z).normalize(),
+                            sampling::uniform_cone_pdf(cos_max),
+                        )
+                    }
+                    None => (
+                        sampling::sample_uniform_sphere(u),
+                        sampling::uniform_sphere_pdf(),
+                    ),
+                };
+                Some(EmittedRay {
+                    o: position,
+                    d,
+                    power: intensity / pdf,
+                })
+            }
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cos_half,
+                smooth,
+            } => {
+                let (t, b) = sampling::coordinate_system(axis);
+                let l = sampling::sample_uniform_cone(u, cos_half);
+                let d = (t * l.x + b * l.y + axis * l.z).normalize();
+                let falloff = spot_falloff(l.z, cos_half, smooth);
+                (falloff > 0.0).then(|| EmittedRay {
+                    o: position,
+                    d,
+                    power: intensity * (falloff / sampling::uniform_cone_pdf(cos_half)),
+                })
+            }
+        }
+    }
+}
+
+/// cos of the half angle of the cone from `position` around `bounds`, or
+/// `None` when the point is inside the sphere.
+fn point_cone(position: Vec3, bounds: BoundingSphere) -> Option<f32> {
+    let d2 = (bounds.center - position).length_squared();
+    let r2 = bounds.radius * bounds.radius;
+    (d2 > r2).then(|| (1.0 - r2 / d2).max(0.0).sqrt())
+}
+
+/// A spot's falloff at `cos` from its axis: smoothstep over the outer
+/// `smooth` (in cos units) of the cone, as Cycles' `spot_attenuation`.
+fn spot_falloff(cos: f32, cos_half: f32, smooth: f32) -> f32 {
+    if cos <= cos_half {
+        return 0.0;
+    }
+    let t = cos - cos_half;
+    if smooth > 0.0 && t < smooth {
+        let x = t / smooth;
+        x * x * (3.0 - 2.0 * x)
+    } else {
+        1.0
     }
 }
 
@@ -221,6 +380,8 @@ pub struct EnvMap {
     distribution: Distribution2D,
     /// Radians, about +Z.
     rotate_z: f32,
+    /// ∫ Le dω over the sphere.
+    integral: Rgb,
 }
 
 fn luminance(c: Rgb) -> f32 {
@@ -240,12 +401,24 @@ impl EnvMap {
             }
         }
         let distribution = Distribution2D::new(&f, width, height);
+        // Each texel covers (2π / w) in φ and the band of its row in θ:
+        // solid angle (2π / w)·(cos θ0 − cos θ1).
+        let mut integral = Rgb::ZERO;
+        for y in 0..height {
+            let c0 = (y as f32 / height as f32 * PI).cos();
+            let c1 = ((y + 1) as f32 / height as f32 * PI).cos();
+            let omega = 2.0 * PI / width as f32 * (c0 - c1);
+            for x in 0..width {
+                integral += texels[y * width + x] * omega;
+            }
+        }
         Self {
             width,
             height,
             texels,
             distribution,
             rotate_z: rotate_z_deg.to_radians(),
+            integral,
         }
     }
 
@@ -316,6 +489,36 @@ impl Environment {
                 Some((w, m.lookup(uv), pdf_uv / (2.0 * PI * PI * sin_theta)))
             }
         }
+    }
+
+    /// ∫ Le dω over the sphere (W·m⁻² on a surface facing every
+    /// direction at once): what a disk of unit area receives.
+    pub fn radiance_integral(&self) -> Rgb {
+        match self {
+            Environment::Constant(c) => *c * (4.0 * PI),
+            Environment::Map(m) => m.integral,
+        }
+    }
+
+    /// The power the environment sends through a disk of `bounds`' radius
+    /// per direction (what [`Self::sample_le`] samples).
+    pub fn power(&self, bounds: BoundingSphere) -> Rgb {
+        self.radiance_integral() * (PI * bounds.radius * bounds.radius)
+    }
+
+    /// Samples a photon arriving from the environment: a direction by
+    /// [`Self::sample`], then a point on the disk perpendicular to it.
+    pub fn sample_le(&self, bounds: BoundingSphere, u: Vec2, v: Vec2) -> Option<EmittedRay> {
+        let (w, le, pdf) = self.sample(v)?;
+        if pdf <= 0.0 {
+            return None;
+        }
+        let (o, area) = bounds.disk_ray(w, u);
+        Some(EmittedRay {
+            o,
+            d: -w,
+            power: le * (area / pdf),
+        })
     }
 
     /// Solid-angle density of `sample` for direction `w`.

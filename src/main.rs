@@ -106,9 +106,43 @@ struct RenderArgs {
     /// Write AOV layers (direct, indirect, emission, transmittance).
     #[arg(long)]
     aovs: bool,
-    /// No progress output.
+    /// Write no PNG preview, whatever the scene says.
+    #[arg(long, conflicts_with = "preview")]
+    no_preview: bool,
+    /// The integrator (overrides the scene's `integrator`).
+    #[arg(long, value_enum)]
+    integrator: Option<IntegratorArg>,
+    /// Render passes until this wall-clock time (e.g. 90, 90s, 5m, 1h)
+    /// instead of until the sample count.
+    #[arg(long, value_parser = parse_duration)]
+    time: Option<std::time::Duration>,
+    /// Rewrite the outputs this often during the render (e.g. 60s).
+    #[arg(long, value_parser = parse_duration)]
+    checkpoint: Option<std::time::Duration>,
+    /// No progress output (the summary line is still printed).
     #[arg(short, long)]
     quiet: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum IntegratorArg {
+    Path,
+    Photon,
+    Auto,
+}
+
+impl From<IntegratorArg> for vdbphoton::scene::Integrator {
+    fn from(a: IntegratorArg) -> Self {
+        match a {
+            IntegratorArg::Path => Self::Path,
+            IntegratorArg::Photon => Self::Photon,
+            IntegratorArg::Auto => Self::Auto,
+        }
+    }
+}
+
+fn parse_duration(s: &str) -> std::result::Result<std::time::Duration, String> {
+    vdbphoton::render::parse_duration(s)
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -305,17 +339,25 @@ fn grid_summary(g: &AnyGrid) -> Summary {
 
 fn render(a: RenderArgs) -> Result<()> {
     use std::io::IsTerminal;
-    use vdbphoton::integrator::{self, Settings};
+    use vdbphoton::render::{render_scene, Progress, RenderOptions, Reporter};
     use vdbphoton::scene::SceneDesc;
     let t_start = Instant::now();
     let mut desc = SceneDesc::load(&a.scene)?;
     let r = &mut desc.render;
-    let cwd = |p: PathBuf| p; // command-line paths are relative to the working directory
+    // Command-line paths are relative to the working directory.
     if let Some(o) = a.output {
-        r.output = cwd(o);
+        // A preview the scene asks for follows the output the user chose,
+        // instead of overwriting the scene's own preview file.
+        if a.preview.is_none() && r.preview.is_some() {
+            r.preview = Some(o.with_extension("png"));
+        }
+        r.output = o;
     }
     if let Some(p) = a.preview {
-        r.preview = Some(cwd(p));
+        r.preview = Some(p);
+    }
+    if a.no_preview {
+        r.preview = None;
     }
     if let Some(v) = a.spp {
         r.spp = v;
@@ -332,6 +374,9 @@ fn render(a: RenderArgs) -> Result<()> {
     if let Some(v) = a.exposure {
         r.exposure = v;
     }
+    if let Some(i) = a.integrator {
+        r.integrator = i.into();
+    }
     r.aovs |= a.aovs;
     desc.validate().map_err(|e| {
         Error::Argument(format!(
@@ -339,134 +384,92 @@ fn render(a: RenderArgs) -> Result<()> {
             a.scene.display()
         ))
     })?;
-    if !desc.render.integrator.is_available() {
-        return Err(Error::Argument(format!(
-            "{}: integrator '{}' is not available yet (use \"path\")",
-            a.scene.display(),
-            desc.render.integrator.name()
-        )));
+    struct Cli {
+        quiet: bool,
+        tty: bool,
+        last_decile: std::sync::atomic::AtomicUsize,
+        throttle: vdbphoton::render::Throttle,
     }
-    if let Some(t) = a.threads {
-        if t == 0 {
-            return Err(Error::Argument("--threads must be at least 1".into()));
+    impl Reporter for Cli {
+        fn warning(&self, m: &str) {
+            eprintln!("vdbphoton: warning: {m}");
         }
-    }
-    let world = vdbphoton::world::World::load(&desc)?;
-    for w in &world.warnings {
-        eprintln!("vdbphoton: warning: {w}");
-    }
-    let r = &desc.render;
-    let settings = Settings {
-        width: r.width,
-        height: r.height,
-        spp: r.spp,
-        seed: r.seed,
-        max_bounces: r.max_bounces,
-    };
-    let quiet = a.quiet;
-    let tty = std::io::stderr().is_terminal();
-    let t_render = Instant::now();
-    let last_decile = std::sync::atomic::AtomicUsize::new(0);
-    let progress = |done: usize, total: usize| {
-        if quiet {
-            return;
-        }
-        let frac = done as f64 / total as f64;
-        let el = t_render.elapsed().as_secs_f64();
-        let eta = if done > 0 { el / frac - el } else { 0.0 };
-        if tty {
-            let n = (frac * 30.0) as usize;
-            eprint!(
-                "\rrendering [{}{}] {:5.1}%  {:.0}s elapsed, ETA {:.0}s ",
-                "#".repeat(n),
-                " ".repeat(30 - n),
-                frac * 100.0,
-                el,
-                eta
-            );
-            if done == total {
-                eprintln!();
+        fn progress(&self, p: Progress) {
+            if self.quiet {
+                return;
             }
-        } else {
-            let decile = (frac * 10.0) as usize;
-            if decile > last_decile.fetch_max(decile, std::sync::atomic::Ordering::Relaxed) {
-                eprintln!(
-                    "rendering: {:3.0}% ({el:.1} s elapsed, ETA {eta:.1} s)",
-                    decile as f64 * 10.0
+            let eta = p.eta.map_or("?".to_string(), |e| format!("{e:.0}s"));
+            if self.tty {
+                if !self.throttle.ready(p.fraction >= 1.0) {
+                    return;
+                }
+                let n = ((p.fraction * 30.0) as usize).min(30);
+                eprint!(
+                    "\rrendering [{}{}] {:5.1}%  pass {}  {:.0}s elapsed, ETA {eta} ",
+                    "#".repeat(n),
+                    " ".repeat(30 - n),
+                    p.fraction * 100.0,
+                    p.passes + 1,
+                    p.elapsed
                 );
+            } else {
+                let decile = (p.fraction * 10.0) as usize;
+                if decile
+                    > self
+                        .last_decile
+                        .fetch_max(decile, std::sync::atomic::Ordering::Relaxed)
+                {
+                    eprintln!(
+                        "rendering: {:3.0}% ({:.1} s elapsed, ETA {eta})",
+                        decile as f64 * 10.0,
+                        p.elapsed
+                    );
+                }
             }
         }
-    };
-    let film = match a.threads {
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .map_err(|e| Error::Argument(format!("cannot start {t} threads: {e}")))?
-            .install(|| integrator::render(&world, &settings, &progress)),
-        None => integrator::render(&world, &settings, &progress),
-    };
-    let render_s = t_render.elapsed().as_secs_f64();
-    let t_write = Instant::now();
-    let (w, h) = (film.width as usize, film.height as usize);
-    let rgba: Vec<glam::Vec4> = film
-        .rgb
-        .iter()
-        .zip(&film.transmittance)
-        .map(|(c, t)| c.extend((1.0 - t).clamp(0.0, 1.0)))
-        .collect();
-    let mut image = vdbphoton::image::Image::from_pixels(w, h, rgba)?;
-    if r.aovs {
-        for (name, data) in [
-            ("direct", &film.direct),
-            ("indirect", &film.indirect),
-            ("emission", &film.emission),
-        ] {
-            let layer = image.add_rgb_layer(name)?;
-            for (i, c) in data.iter().enumerate() {
-                layer.set(i % w, i / w, &c.to_array());
+        fn checkpoint(&self, path: &std::path::Path, passes: u32) {
+            if !self.quiet {
+                if self.tty {
+                    eprintln!();
+                }
+                eprintln!("checkpoint: {} after {passes} passes", path.display());
             }
         }
-        let layer = image.add_layer("transmittance", &["Y"])?;
-        for (i, t) in film.transmittance.iter().enumerate() {
-            layer.set(i % w, i / w, &[*t]);
-        }
     }
-    let attrs = vec![
-        (
-            "vdbphoton/version".to_string(),
-            env!("CARGO_PKG_VERSION").to_string(),
-        ),
-        (
-            "vdbphoton/integrator".to_string(),
-            r.integrator.name().to_string(),
-        ),
-        ("vdbphoton/spp".to_string(), r.spp.to_string()),
-        ("vdbphoton/seed".to_string(), r.seed.to_string()),
-        (
-            "vdbphoton/max_bounces".to_string(),
-            r.max_bounces.to_string(),
-        ),
-        ("vdbphoton/scene".to_string(), a.scene.display().to_string()),
-    ];
-    vdbphoton::image::write_exr(&r.output, &image, &attrs)?;
-    if let Some(p) = &r.preview {
-        vdbphoton::image::write_png_preview(p, &image, r.exposure)?;
+    let reporter = Cli {
+        quiet: a.quiet,
+        tty: std::io::stderr().is_terminal(),
+        last_decile: std::sync::atomic::AtomicUsize::new(0),
+        throttle: vdbphoton::render::Throttle::new(std::time::Duration::from_millis(200)),
+    };
+    let opts = RenderOptions {
+        threads: a.threads,
+        time_limit: a.time,
+        checkpoint: a.checkpoint,
+        attributes: vec![("vdbphoton/scene".to_string(), a.scene.display().to_string())],
+    };
+    let s = render_scene(&desc, &opts, &reporter)?;
+    if reporter.tty && !a.quiet {
+        eprintln!();
     }
-    if !quiet {
-        eprintln!(
-            "wrote {}{}  (load {:.2} s, render {:.2} s, write {:.2} s, total {:.2} s; {} x {}, {} spp, {} threads)",
-            r.output.display(),
-            r.preview.as_ref().map(|p| format!(" and {}", p.display())).unwrap_or_default(),
-            world.load_seconds,
-            render_s,
-            t_write.elapsed().as_secs_f64(),
-            t_start.elapsed().as_secs_f64(),
-            w,
-            h,
-            r.spp,
-            a.threads.unwrap_or_else(rayon::current_num_threads)
-        );
+    for p in &s.outputs {
+        println!("Saved: '{}'", p.display());
     }
+    // The summary is printed even with --quiet: it is the line a farm log
+    // wants.
+    eprintln!(
+        "rendered {} x {} with {} ({} passes, {} spp) in {:.2} s  (load {:.2} s, write {:.2} s, total {:.2} s, {} threads)",
+        s.width,
+        s.height,
+        s.integrator,
+        s.passes,
+        s.spp,
+        s.render_seconds,
+        s.load_seconds,
+        s.write_seconds,
+        t_start.elapsed().as_secs_f64(),
+        s.threads
+    );
     Ok(())
 }
 

@@ -128,6 +128,8 @@ pub struct Step {
     /// `scatter`): with overlapping volumes one of theirs, chosen in
     /// proportion to its scattering ([`Media::eval_scatter`]).
     pub phase: PhaseFunction,
+    /// The index of the volume whose phase function that is.
+    pub volume: usize,
 }
 
 #[inline]
@@ -166,11 +168,13 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
                     weight: albedo,
                     medium: None,
                     phase,
+                    volume: 0,
                 });
             }
         }
     }
-    let (m, phase) = c.media.eval_scatter(c.p, u_phase);
+    let (m, volume) = c.media.eval_scatter(c.p, u_phase);
+    let phase = c.media.phase_of(volume);
     let sigma_t = m.sigma_t();
     let sigma_n = (Rgb::splat(c.sigma_maj) - sigma_t).max(Rgb::ZERO);
     let sigma_r = (sigma_t - Rgb::splat(c.sigma_c)).max(Rgb::ZERO);
@@ -192,6 +196,7 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
             weight: m.sigma_s * share / (c.sigma_maj * wr * p_rest),
             medium: Some(m),
             phase,
+            volume,
         })
     } else {
         Some(Step {
@@ -199,6 +204,7 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
             weight: sigma_n / (c.sigma_maj * wn * p_rest),
             medium: Some(m),
             phase,
+            volume,
         })
     }
 }

@@ -107,12 +107,16 @@ fn bad_scenes_fail_cleanly_without_output() {
             "{name} left a file behind"
         );
     }
-    // An output directory that does not exist: an error naming the path,
-    // and nothing written anywhere.
+    // An output folder that cannot be made (its parent is a file): an
+    // error naming the path before any work, and nothing written anywhere.
+    let blocker = common::tempdir();
+    let file = blocker.path().join("file");
+    std::fs::write(&file, b"x").unwrap();
+    let bad_out = file.join("dir/x.exr");
     let (code, err) = render(&[
         &format!("{SCENES}/cloud.toml"),
         "-o",
-        "/nonexistent/dir/x.exr",
+        bad_out.to_str().unwrap(),
         "--spp",
         "1",
         "--width",
@@ -122,7 +126,8 @@ fn bad_scenes_fail_cleanly_without_output() {
         "--quiet",
     ]);
     assert_eq!(code, 1);
-    assert!(err.contains("/nonexistent/dir/x.exr"), "{err}");
+    assert!(err.contains(bad_out.to_str().unwrap()), "{err}");
+    assert_eq!(common::dir_entries(blocker.path()), vec!["file".to_string()]);
     // --spp 0 is refused.
     let (code, err) = render(&[
         &format!("{SCENES}/cloud.toml"),

@@ -11,7 +11,7 @@ use common::{const_box, empty_grid, unit_box_grid};
 use glam::{DAffine3, DVec3, IVec3, Vec3};
 use vdbphoton::camera::Camera;
 use vdbphoton::grid::{Grid, GridParts};
-use vdbphoton::integrator::{path, Settings};
+use vdbphoton::integrator::path;
 use vdbphoton::light::{Environment, Light};
 use vdbphoton::medium::{BlackbodyFilter, ExtraGrids, Material, Media, Principled, Volume};
 use vdbphoton::phase::{henyey_greenstein, PhaseFunction};
@@ -45,17 +45,10 @@ fn world(media: Media, lights: Vec<Light>) -> World {
 
 /// Mean and standard error per channel of `n` path samples along `o + t d`.
 fn estimate(world: &World, o: Vec3, d: Vec3, n: u64, max_bounces: u32) -> (Rgb, Rgb) {
-    let settings = Settings {
-        width: 1,
-        height: 1,
-        spp: 1,
-        seed: 0,
-        max_bounces,
-    };
     let (mut s, mut s2) = ([0.0f64; 3], [0.0f64; 3]);
     for i in 0..n {
         let mut rng = Rng::new(Domain::Test, 17, 0, i);
-        let l = path::trace(world, &settings, o, d, &mut rng).l;
+        let l = path::trace(world, max_bounces, o, d, &mut rng).l;
         for c in 0..3 {
             s[c] += l[c] as f64;
             s2[c] += (l[c] as f64).powi(2);

@@ -2,8 +2,8 @@ use std::path::{Path, PathBuf};
 
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use vdbphoton::scene::{
-    CameraDesc, EnvironmentDesc, Integrator, LightDesc, MaterialDesc, PathSeg, PhaseDesc,
-    Principled, RenderDesc, SceneDesc, SceneError, SceneFormat,
+    CameraDesc, EnvironmentDesc, Estimate, Integrator, LightDesc, MaterialDesc, PathSeg, PhaseDesc,
+    PhotonSettings, Principled, RenderDesc, SceneDesc, SceneError, SceneFormat,
 };
 
 const VOL: &str = "[[volume]]\nfile = \"a.vdb\"\n";
@@ -47,7 +47,7 @@ fn reference_scene() {
         (r.width, r.height, r.spp, r.seed, r.max_bounces),
         (256, 192, 64, 0, 256)
     );
-    assert_eq!(r.integrator, Integrator::Path);
+    assert_eq!(r.integrator, Integrator::Auto);
     assert_eq!(r.output, Path::new("/work/shared/data/reference/out.exr"));
     assert_eq!((r.preview.clone(), r.exposure, r.aovs), (None, 0.0, false));
     assert_eq!(
@@ -103,7 +103,15 @@ fn defaults_when_keys_are_absent() {
             spp: 64,
             seed: 0,
             max_bounces: 256,
-            integrator: Integrator::Path,
+            integrator: Integrator::Auto,
+            photon: PhotonSettings {
+                photons: 200_000,
+                k: 32,
+                radius: None,
+                alpha: 2.0 / 3.0,
+                step: None,
+                estimate: Estimate::Beam,
+            },
             output: PathBuf::from("/s/out.exr"),
             preview: None,
             exposure: 0.0,
@@ -471,11 +479,33 @@ fn error_spp_zero() {
 }
 
 #[test]
-fn error_photon_not_yet_available() {
+fn photon_keys() {
+    let s = ok(&format!(
+        "[render]\nintegrator = \"photon\"\nphotons = 5000\nk = 12\nradius = 0.25\nalpha = 0.5\nstep = 0.01\nestimate = \"point\"\n{VOL}"
+    ));
+    assert_eq!(s.render.integrator, Integrator::Photon);
     assert_eq!(
-        toml_err(&format!("[render]\nintegrator = \"photon\"\n{VOL}")),
-        "scene.toml:2: key 'integrator' in [render]: \"photon\" is not yet available (use \"path\")"
+        s.render.photon,
+        PhotonSettings {
+            photons: 5000,
+            k: 12,
+            radius: Some(0.25),
+            alpha: 0.5,
+            step: Some(0.01),
+            estimate: Estimate::Point,
+        }
     );
+    for (text, want) in [
+        ("photons = 0", "scene.toml:2: key 'photons' in [render]: must be in [1, 268435456] (photons per pass; each takes about 100 bytes), got 0"),
+        ("k = 0", "scene.toml:2: key 'k' in [render]: must be in [1, 1024], got 0"),
+        ("radius = -1.0", "scene.toml:2: key 'radius' in [render]: must be in (0, 340282350000000000000000000000000000000], got -1"),
+        ("alpha = 1.5", "scene.toml:2: key 'alpha' in [render]: must be in (0, 1], got 1.5"),
+        ("step = 0.0", "scene.toml:2: key 'step' in [render]: must be in (0, 340282350000000000000000000000000000000], got 0"),
+    ] {
+        assert_eq!(toml_err(&format!("[render]\n{text}\n{VOL}")), want);
+    }
+    assert!(toml_err(&format!("[render]\nestimate = \"cone\"\n{VOL}")).contains("beam"));
+    assert!(toml_err(&format!("[render]\nintegrator = \"bdpt\"\n{VOL}")).contains("auto"));
 }
 
 #[test]

@@ -1,21 +1,40 @@
-//! Integrators and the render loop that drives them.
+//! Integrators behind one interface, and the pass loop that drives them.
 //!
-//! The film is cut into 16x16 tiles rendered in parallel (rayon). Every
-//! random number of a camera sample comes from a stream keyed by (seed,
-//! pixel, sample index), never by the thread, so an image is identical
-//! whatever the thread count. Pixels use a box filter of one pixel (each
-//! sample at a uniformly random position in its pixel), as the reference
-//! renders do.
+//! A render is a sequence of passes (pbrt-v4's `Integrator::Render`, cut
+//! into passes as progressive photon mapping needs): before a pass the
+//! integrator prepares what the whole pass shares
+//! ([`Integrator::begin_pass`]: the photon integrator traces a fresh photon
+//! map), then every pixel gets [`Integrator::samples_per_pass`] camera
+//! samples ([`Integrator::li`]), added to the film's sums. A sample count
+//! or a time budget decides how many passes run (`crate::render`).
+//!
+//! The film is cut into 16x16 tiles rendered in parallel (rayon), in a
+//! fixed shuffled order so that the share of tiles done is a fair measure
+//! of the work done (empty sky rows do not all come first). Every random
+//! number of a camera sample comes from a stream keyed by (seed, pixel,
+//! sample index) in the camera domain, never by the thread, so an image is
+//! identical whatever the thread count. Pixels use a box filter of one
+//! pixel (each sample at a uniformly random position in its pixel), as the
+//! reference renders do.
+//!
+//! To add an integrator: implement [`Integrator`] in a module of its own
+//! here, give it a name in `scene::Integrator`, and build it in
+//! `crate::render::make_integrator`.
 
 pub mod path;
+pub mod photon;
 
-use crate::sampling::{Domain, Rng};
-use crate::tracking;
+use crate::film::{Film, Region};
+use crate::sampling::{mix64, Domain, Rng};
 use crate::world::World;
 use crate::Rgb;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+pub use path::PathIntegrator;
+pub use photon::PhotonIntegrator;
 
 /// What one camera sample returns.
 #[derive(Debug, Clone, Copy, Default)]
@@ -28,9 +47,49 @@ pub struct SampleResult {
     pub indirect: Rgb,
     /// Emission of the media (at any depth).
     pub emission: Rgb,
+    /// Transmittance along the camera ray (mean over channels; alpha is 1
+    /// minus it).
+    pub transmittance: f32,
 }
 
-/// Settings of a render (validated by the scene module and the CLI).
+/// The key of a camera sample's random streams: (seed, pixel, sample
+/// index). An integrator that needs a second stream (the path tracer's
+/// alpha) derives it from the same key in another domain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SampleKey {
+    pub seed: u64,
+    pub pixel: u64,
+    pub index: u64,
+}
+
+impl SampleKey {
+    /// The stream of this sample in `domain`.
+    pub fn rng(&self, domain: Domain) -> Rng {
+        Rng::new(domain, self.seed, self.pixel, self.index)
+    }
+}
+
+/// A light-transport algorithm, as the pass loop drives it.
+pub trait Integrator: Sync {
+    /// The name used in scene files and image headers.
+    fn name(&self) -> &'static str;
+    /// Camera samples per pixel in each pass.
+    fn samples_per_pass(&self) -> u32 {
+        1
+    }
+    /// Prepares pass `pass` (0-based) before its camera samples.
+    fn begin_pass(&mut self, _world: &World, _pass: u32) {}
+    /// The radiance along the camera ray `o + t d` (`d` unit). `rng` is the
+    /// sample's camera stream, already used for the position in the pixel.
+    fn li(&self, world: &World, o: Vec3, d: Vec3, rng: &mut Rng, key: SampleKey) -> SampleResult;
+    /// Settings and work so far, for the image header (`vdbphoton/...`).
+    fn attributes(&self) -> Vec<(String, String)> {
+        Vec::new()
+    }
+}
+
+/// Settings of a render with the reference path tracer (tests and
+/// benchmarks; the renderer proper is set up by `crate::render`).
 #[derive(Debug, Clone)]
 pub struct Settings {
     pub width: u32,
@@ -41,105 +100,151 @@ pub struct Settings {
     pub max_bounces: u32,
 }
 
-/// The rendered film: mean per pixel, row-major from the top row.
-#[derive(Debug, Clone)]
-pub struct Film {
-    pub width: u32,
-    pub height: u32,
-    pub rgb: Vec<Rgb>,
-    /// Mean transmittance along the camera ray (alpha = 1 − this).
-    pub transmittance: Vec<f32>,
-    pub direct: Vec<Rgb>,
-    pub indirect: Vec<Rgb>,
-    pub emission: Vec<Rgb>,
-}
-
 const TILE: u32 = 16;
 
-/// A rendered pixel: position, [L, direct, indirect, emission], transmittance.
-type PixelOut = (u32, u32, [Rgb; 4], f32);
-
-/// Streams of one render: the stream number of a camera sample.
-fn pixel_stream(x: u32, y: u32, width: u32) -> u64 {
+/// The stream number of pixel (x, y) of an image `width` wide.
+pub fn pixel_stream(x: u32, y: u32, width: u32) -> u64 {
     y as u64 * width as u64 + x as u64
 }
 
-/// Renders the world with the reference path tracer. `progress(done,
-/// total)` is called after each tile (from worker threads).
+/// One camera sample of pixel (x, y), sample `index`.
+pub fn camera_sample(
+    world: &World,
+    integrator: &dyn Integrator,
+    seed: u64,
+    x: u32,
+    y: u32,
+    index: u64,
+) -> SampleResult {
+    let key = SampleKey {
+        seed,
+        pixel: pixel_stream(x, y, world.camera.width()),
+        index,
+    };
+    let mut rng = key.rng(Domain::Camera);
+    let film = Vec2::new(x as f32, y as f32) + rng.next_vec2();
+    let o = world.camera.position();
+    let d = world.camera.direction(film);
+    integrator.li(world, o, d, &mut rng, key)
+}
+
+/// The tiles of `region`, in a fixed shuffled order.
+fn tiles(region: Region) -> Vec<Region> {
+    let mut t = Vec::new();
+    let mut y = region.y0;
+    while y < region.y1 {
+        let mut x = region.x0;
+        while x < region.x1 {
+            t.push(Region {
+                x0: x,
+                y0: y,
+                x1: (x + TILE).min(region.x1),
+                y1: (y + TILE).min(region.y1),
+            });
+            x += TILE;
+        }
+        y += TILE;
+    }
+    t.sort_by_key(|r| mix64(((r.y0 as u64) << 32) | r.x0 as u64));
+    t
+}
+
+/// Runs pass `pass` of `integrator` over the film's region: every pixel
+/// gets the integrator's samples per pass, numbered on from the samples of
+/// the passes before. `progress(done, total)` is called after each tile
+/// (from worker threads). Call [`Integrator::begin_pass`] first.
+pub fn render_pass(
+    world: &World,
+    integrator: &dyn Integrator,
+    film: &mut Film,
+    seed: u64,
+    pass: u32,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) {
+    let spp = integrator.samples_per_pass();
+    let first = pass as u64 * spp as u64;
+    let tiles = tiles(film.region);
+    let total = tiles.len();
+    let done = AtomicUsize::new(0);
+    // Each pixel lies in one tile, so its sums see its samples in order
+    // whichever thread adds a tile when: the film is the same bits on any
+    // number of threads.
+    let film = Mutex::new(film);
+    tiles.into_par_iter().for_each(|t| {
+        let mut out = Vec::with_capacity(t.pixels() * spp as usize);
+        for y in t.y0..t.y1 {
+            for x in t.x0..t.x1 {
+                for s in 0..spp {
+                    out.push(camera_sample(
+                        world,
+                        integrator,
+                        seed,
+                        x,
+                        y,
+                        first + s as u64,
+                    ));
+                }
+            }
+        }
+        {
+            let mut f = film.lock().unwrap_or_else(|e| e.into_inner());
+            let mut k = 0;
+            for y in t.y0..t.y1 {
+                for x in t.x0..t.x1 {
+                    for _ in 0..spp {
+                        f.add(x, y, &out[k]);
+                        k += 1;
+                    }
+                }
+            }
+        }
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+    });
+}
+
+/// Renders the whole image with the reference path tracer at
+/// `settings.spp` samples per pixel (tests and benchmarks).
+/// `progress(done, total)` counts tiles over all passes.
 pub fn render(
     world: &World,
     settings: &Settings,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Film {
-    let (w, h) = (settings.width, settings.height);
-    let tiles_x = w.div_ceil(TILE);
-    let tiles_y = h.div_ceil(TILE);
-    let total = (tiles_x * tiles_y) as usize;
-    let done = AtomicUsize::new(0);
-    let tiles: Vec<Vec<PixelOut>> = (0..total)
-        .into_par_iter()
-        .map(|t| {
-            let tx = (t as u32 % tiles_x) * TILE;
-            let ty = (t as u32 / tiles_x) * TILE;
-            let mut out = Vec::with_capacity((TILE * TILE) as usize);
-            for y in ty..(ty + TILE).min(h) {
-                for x in tx..(tx + TILE).min(w) {
-                    let (acc, tr) = render_pixel(world, settings, x, y);
-                    out.push((x, y, acc, tr));
-                }
-            }
-            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress(n, total);
-            out
-        })
-        .collect();
-    let n = (w * h) as usize;
-    let mut film = Film {
-        width: w,
-        height: h,
-        rgb: vec![Rgb::ZERO; n],
-        transmittance: vec![1.0; n],
-        direct: vec![Rgb::ZERO; n],
-        indirect: vec![Rgb::ZERO; n],
-        emission: vec![Rgb::ZERO; n],
-    };
-    for tile in tiles {
-        for (x, y, acc, tr) in tile {
-            let i = (y * w + x) as usize;
-            film.rgb[i] = acc[0];
-            film.direct[i] = acc[1];
-            film.indirect[i] = acc[2];
-            film.emission[i] = acc[3];
-            film.transmittance[i] = tr;
-        }
+    let integrator = PathIntegrator::new(settings.max_bounces);
+    let region = Region::full(settings.width, settings.height);
+    let mut film = Film::new(settings.width, settings.height, region, true);
+    let per_pass = tiles(region).len();
+    let total = per_pass * settings.spp as usize;
+    for pass in 0..settings.spp {
+        let before = pass as usize * per_pass;
+        render_pass(
+            world,
+            &integrator,
+            &mut film,
+            settings.seed,
+            pass,
+            &|d, _| progress(before + d, total),
+        );
     }
     film
 }
 
-/// Mean of `spp` samples of pixel (x, y): [L, direct, indirect, emission]
-/// and the transmittance along the camera ray.
+/// Mean of `spp` path-traced samples of pixel (x, y): [L, direct, indirect,
+/// emission] and the transmittance along the camera ray (tests).
 pub fn render_pixel(world: &World, settings: &Settings, x: u32, y: u32) -> ([Rgb; 4], f32) {
-    let stream = pixel_stream(x, y, settings.width);
+    let integrator = PathIntegrator::new(settings.max_bounces);
     let mut acc = [Rgb::ZERO; 4];
-    let mut tr_sum = 0.0f32;
+    let mut tr = 0.0f32;
     for s in 0..settings.spp {
-        let mut rng = Rng::new(Domain::Camera, settings.seed, stream, s as u64);
-        let film = Vec2::new(x as f32, y as f32) + rng.next_vec2();
-        let o = world.camera.position();
-        let d = world.camera.direction(film);
-        let r = path::trace(world, settings, o, d, &mut rng);
-        // Alpha: ratio-tracked transmittance of the camera ray, from a
-        // stream of its own so it does not perturb the path.
-        let mut rng_t = Rng::new(Domain::Alpha, settings.seed, stream, s as u64);
-        let tr = tracking::transmittance(&world.media, o, d, f32::INFINITY, &mut rng_t);
-        tr_sum += (tr.x + tr.y + tr.z) / 3.0;
+        let r = camera_sample(world, &integrator, settings.seed, x, y, s as u64);
         if r.l.is_finite() {
             acc[0] += r.l;
             acc[1] += r.direct;
             acc[2] += r.indirect;
             acc[3] += r.emission;
         }
+        tr += r.transmittance;
     }
     let inv = 1.0 / settings.spp as f32;
-    (acc.map(|a| a * inv), tr_sum * inv)
+    (acc.map(|a| a * inv), tr * inv)
 }

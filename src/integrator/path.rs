@@ -23,14 +23,48 @@
 //! - Russian roulette after three scattering events once the throughput is
 //!   below [`RR_THRESHOLD`]; `max_bounces` real scattering events at most.
 
-use super::{SampleResult, Settings};
+use super::{Integrator, SampleKey, SampleResult};
 use crate::light::Light;
 use crate::medium::Media;
-use crate::sampling::{power_heuristic, roulette, Rng};
+use crate::sampling::{power_heuristic, roulette, Domain, Rng};
 use crate::tracking::{self, sample_t_maj};
 use crate::world::World;
 use crate::Rgb;
 use glam::Vec3;
+
+/// The reference volumetric path tracer as an [`Integrator`]: one path per
+/// camera sample, a pass per sample.
+#[derive(Debug, Clone)]
+pub struct PathIntegrator {
+    /// Real scattering events at most along a path.
+    pub max_bounces: u32,
+}
+
+impl PathIntegrator {
+    pub fn new(max_bounces: u32) -> Self {
+        Self { max_bounces }
+    }
+}
+
+impl Integrator for PathIntegrator {
+    fn name(&self) -> &'static str {
+        "path"
+    }
+
+    fn li(&self, world: &World, o: Vec3, d: Vec3, rng: &mut Rng, key: SampleKey) -> SampleResult {
+        let mut r = trace(world, self.max_bounces, o, d, rng);
+        // Alpha: ratio-tracked transmittance of the camera ray, from a
+        // stream of its own so it does not perturb the path.
+        let mut rng_t = key.rng(Domain::Alpha);
+        let tr = tracking::transmittance(&world.media, o, d, f32::INFINITY, &mut rng_t);
+        r.transmittance = (tr.x + tr.y + tr.z) / 3.0;
+        r
+    }
+
+    fn attributes(&self) -> Vec<(String, String)> {
+        vec![("vdbphoton/max_bounces".into(), self.max_bounces.to_string())]
+    }
+}
 
 /// Scattering events after which Russian roulette starts.
 const RR_DEPTH: u32 = 3;
@@ -45,13 +79,18 @@ const RR_DEPTH: u32 = 3;
 pub const RR_THRESHOLD: f32 = 0.25;
 
 /// Light arriving at `p` along each light's sample, times the phase
-/// function and the transmittance, for NEE from a scattering event.
-fn direct_light(
+/// function and the transmittance, for NEE from a scattering event. With
+/// `mis`, lights a phase-sampled ray can also hit are weighted by the power
+/// heuristic against phase sampling (the path tracer); without, the light
+/// sample is the whole estimate (the photon integrator's marcher, which
+/// samples no direction).
+pub(super) fn direct_light(
     world: &World,
     media: &Media,
     p: Vec3,
     wo: Vec3,
     phase: &crate::phase::PhaseFunction,
+    mis: bool,
     rng: &mut Rng,
 ) -> Rgb {
     let mut l = Rgb::ZERO;
@@ -71,7 +110,7 @@ fn direct_light(
         if tr.max_element() <= 0.0 {
             continue;
         }
-        let w = if ls.is_delta {
+        let w = if ls.is_delta || !mis {
             1.0
         } else {
             power_heuristic(1, ls.pdf, 1, phase.pdf(wo, ls.wi))
@@ -84,7 +123,11 @@ fn direct_light(
                 let f = phase.eval(wo, wi);
                 if f > 0.0 {
                     let tr = tracking::transmittance(media, p, wi, f32::INFINITY, rng);
-                    let w = power_heuristic(1, pdf, 1, phase.pdf(wo, wi));
+                    let w = if mis {
+                        power_heuristic(1, pdf, 1, phase.pdf(wo, wi))
+                    } else {
+                        1.0
+                    };
                     l += le * tr * (f * w / pdf);
                 }
             }
@@ -113,8 +156,10 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32) -> Rgb {
     l
 }
 
-/// One camera path from `o` in direction `d`.
-pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng) -> SampleResult {
+/// One camera path from `o` in direction `d`, with at most `max_bounces`
+/// real scattering events (`transmittance` is left at 0: see
+/// [`PathIntegrator::li`]).
+pub fn trace(world: &World, max_bounces: u32, o: Vec3, d: Vec3, rng: &mut Rng) -> SampleResult {
     let media = &world.media;
     let mut res = SampleResult::default();
     let mut beta = Rgb::ONE;
@@ -145,13 +190,13 @@ pub fn trace(world: &World, settings: &Settings, o: Vec3, d: Vec3, rng: &mut Rng
                 return true;
             }
             depth += 1;
-            if depth > settings.max_bounces || beta.max_element() <= 0.0 {
+            if depth > max_bounces || beta.max_element() <= 0.0 {
                 terminated = true;
                 return false;
             }
             let wo = -ray_d;
             let phase = step.phase;
-            let ld = beta * direct_light(world, media, c.p, wo, &phase, rng);
+            let ld = beta * direct_light(world, media, c.p, wo, &phase, true, rng);
             res.l += ld;
             if depth == 1 {
                 res.direct += ld;

@@ -500,17 +500,19 @@ impl Media {
     /// allocation: the choice is made while the volumes are summed
     /// (weighted reservoir sampling with one uniform number, rescaled at
     /// each step).
+    /// Returns the optics and the index of the chosen volume (its phase
+    /// function is [`Self::phase_of`]; 0 when none scatters).
     #[inline]
-    pub fn eval_scatter(&self, p: Vec3, u: f32) -> (MediumPoint, PhaseFunction) {
+    pub fn eval_scatter(&self, p: Vec3, u: f32) -> (MediumPoint, usize) {
         crate::stats::count_lookup();
         match self.volumes.as_slice() {
-            [v] => (v.eval(p), v.phase()),
+            [v] => (v.eval(p), 0),
             vs => {
                 let mut acc = MediumPoint::default();
-                let mut phase = PhaseFunction::Isotropic;
+                let mut chosen = 0;
                 let mut total = 0.0f32;
                 let mut u = u;
-                for v in vs {
+                for (i, v) in vs.iter().enumerate() {
                     let m = v.eval(p);
                     acc.sigma_a += m.sigma_a;
                     acc.sigma_s += m.sigma_s;
@@ -522,16 +524,25 @@ impl Media {
                     total += w;
                     let q = w / total;
                     if u < q {
-                        phase = v.phase();
+                        chosen = i;
                         u /= q;
                     } else {
                         u = (u - q) / (1.0 - q);
                     }
                     u = u.clamp(0.0, 1.0 - f32::EPSILON);
                 }
-                (acc, phase)
+                (acc, chosen)
             }
         }
+    }
+
+    /// The phase function of volume `i` (isotropic for an index past the
+    /// end, which no caller passes).
+    #[inline]
+    pub fn phase_of(&self, i: usize) -> PhaseFunction {
+        self.volumes
+            .get(i)
+            .map_or(PhaseFunction::Isotropic, |v| v.phase)
     }
 
     /// The phase function of a scattering event at `p` (see
@@ -543,7 +554,7 @@ impl Media {
         }
         match self.volumes.as_slice() {
             [v] => v.phase(),
-            _ => self.eval_scatter(p, u).1,
+            _ => self.phase_of(self.eval_scatter(p, u).1),
         }
     }
 

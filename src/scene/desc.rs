@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use serde::Deserialize;
 
+pub use crate::integrator::photon::{Estimate, PhotonSettings};
 pub use crate::medium::{BlackbodyFilter, Principled};
 use crate::Rgb;
 
@@ -28,10 +29,13 @@ pub struct SceneDesc {
 #[serde(rename_all = "lowercase")]
 pub enum Integrator {
     /// Reference volumetric path tracer.
-    #[default]
     Path,
-    /// Photon mapping. Parsed, but not yet available: `validate()` rejects it.
+    /// Volumetric photon mapping with a ray marcher.
     Photon,
+    /// The photon integrator, unless the scene is one where the path tracer
+    /// wins (`crate::render::choose_integrator`).
+    #[default]
+    Auto,
 }
 
 impl Integrator {
@@ -40,12 +44,8 @@ impl Integrator {
         match self {
             Integrator::Path => "path",
             Integrator::Photon => "photon",
+            Integrator::Auto => "auto",
         }
-    }
-
-    /// Whether the renderer implements this integrator today.
-    pub fn is_available(self) -> bool {
-        matches!(self, Integrator::Path)
     }
 }
 
@@ -60,6 +60,9 @@ pub struct RenderDesc {
     pub seed: u64,
     pub max_bounces: u32,
     pub integrator: Integrator,
+    /// The photon integrator's settings (`photons`, `k`, `radius`, `alpha`,
+    /// `step`, `estimate`).
+    pub photon: PhotonSettings,
     /// EXR output, resolved against the scene file's directory.
     pub output: PathBuf,
     /// Optional PNG preview, resolved against the scene file's directory.
@@ -79,7 +82,8 @@ impl Default for RenderDesc {
             spp: 64,
             seed: 0,
             max_bounces: 256,
-            integrator: Integrator::Path,
+            integrator: Integrator::Auto,
+            photon: PhotonSettings::default(),
             output: PathBuf::from("out.exr"),
             preview: None,
             exposure: 0.0,

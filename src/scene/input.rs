@@ -13,8 +13,9 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use super::desc::{
-    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, EnvironmentDesc, Integrator,
-    LightDesc, MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
+    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, EnvironmentDesc, Estimate,
+    Integrator, LightDesc, MaterialDesc, PhaseDesc, PhotonSettings, Principled, RenderDesc,
+    SceneDesc, VolumeDesc,
 };
 use super::error::{kp, PathSeg, ValidationError};
 use crate::Rgb;
@@ -85,10 +86,23 @@ struct RenderIn {
     seed: Option<u64>,
     max_bounces: Option<u32>,
     integrator: Option<Integrator>,
+    photons: Option<u32>,
+    k: Option<u32>,
+    radius: Option<f64>,
+    alpha: Option<f64>,
+    step: Option<f64>,
+    estimate: Option<EstimateIn>,
     output: Option<String>,
     preview: Option<String>,
     exposure: Option<f64>,
     aovs: Option<bool>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum EstimateIn {
+    Beam,
+    Point,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -290,6 +304,21 @@ impl RenderIn {
             seed: self.seed.unwrap_or(d.seed),
             max_bounces: self.max_bounces.unwrap_or(d.max_bounces),
             integrator: self.integrator.unwrap_or(d.integrator),
+            photon: {
+                let p = d.photon;
+                PhotonSettings {
+                    photons: self.photons.unwrap_or(p.photons),
+                    k: self.k.unwrap_or(p.k),
+                    radius: self.radius.map(|r| r as f32).or(p.radius),
+                    alpha: self.alpha.map_or(p.alpha, |a| a as f32),
+                    step: self.step.map(|s| s as f32).or(p.step),
+                    estimate: match self.estimate {
+                        None => p.estimate,
+                        Some(EstimateIn::Beam) => Estimate::Beam,
+                        Some(EstimateIn::Point) => Estimate::Point,
+                    },
+                }
+            },
             output: resolve(base, output, kp!["render", "output"])?,
             preview: match self.preview {
                 Some(p) => Some(resolve(base, &p, kp!["render", "preview"])?),

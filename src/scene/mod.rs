@@ -22,7 +22,8 @@ use std::path::Path;
 
 pub use desc::{
     affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, EnvironmentDesc,
-    Integrator, LightDesc, MaterialDesc, PhaseDesc, Principled, RenderDesc, SceneDesc, VolumeDesc,
+    Estimate, Integrator, LightDesc, MaterialDesc, PhaseDesc, PhotonSettings, Principled,
+    RenderDesc, SceneDesc, VolumeDesc,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
 

@@ -161,14 +161,25 @@ impl SceneDesc {
         if r.spp < 1 {
             return err(p("spp"), format!("must be >= 1, got {}", r.spp));
         }
-        if !r.integrator.is_available() {
+        let ph = &r.photon;
+        if !(1..=MAX_PHOTONS).contains(&ph.photons) {
             return err(
-                p("integrator"),
+                p("photons"),
                 format!(
-                    "\"{}\" is not yet available (use \"path\")",
-                    r.integrator.name()
+                    "must be in [1, {MAX_PHOTONS}] (photons per pass; each takes about 100 bytes), got {}",
+                    ph.photons
                 ),
             );
+        }
+        if !(1..=1024).contains(&ph.k) {
+            return err(p("k"), format!("must be in [1, 1024], got {}", ph.k));
+        }
+        if let Some(radius) = ph.radius {
+            in_range(&p("radius"), radius, (0.0, false), (f32::MAX, true))?;
+        }
+        in_range(&p("alpha"), ph.alpha, (0.0, false), (1.0, true))?;
+        if let Some(step) = ph.step {
+            in_range(&p("step"), step, (0.0, false), (f32::MAX, true))?;
         }
         if r.output.as_os_str().is_empty() {
             return err(p("output"), "path must not be empty");
@@ -274,6 +285,10 @@ fn validate_light(path: &[PathSeg], light: &LightDesc) -> Check {
 /// sizes would fail to allocate, and an allocation failure aborts the
 /// process instead of reporting an error.
 pub const MAX_PIXELS: u64 = 1 << 27;
+
+/// Most photons a pass may emit: 2^28 (a pass's photon map then takes tens
+/// of GiB; the render checks what the machine has before it starts).
+pub const MAX_PHOTONS: u32 = 1 << 28;
 
 fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
     let k = |key| with(path, key);

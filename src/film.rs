@@ -1,0 +1,221 @@
+//! The film: per-pixel sums of camera samples and their counts, over the
+//! passes of a render. Sums rather than means so that passes accumulate
+//! (each pass adds its samples), a render stopped by a time budget is as
+//! valid as one stopped by a sample count, and renders of the same pixels
+//! with different seeds merge by adding (weighted by their counts).
+//!
+//! A film covers a [`Region`] of the full image (all of it, or a tile);
+//! pixels are addressed in full-image coordinates, row-major from the top.
+
+use crate::image::{Image, ImageError};
+use crate::integrator::SampleResult;
+use crate::Rgb;
+use glam::{DVec3, Vec4};
+
+/// A rectangle of pixels `[x0, x1) × [y0, y1)` in a `width` x `height`
+/// image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Region {
+    /// The whole `width` x `height` image.
+    pub fn full(width: u32, height: u32) -> Self {
+        Self {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+    pub fn pixels(&self) -> usize {
+        self.width() as usize * self.height() as usize
+    }
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
+    }
+}
+
+/// Sums of one pixel's AOVs: light scattered once, more than once, emission.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct AovSums {
+    direct: Rgb,
+    indirect: Rgb,
+    emission: Rgb,
+}
+
+/// Per-pixel sums over the camera samples of a render.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Film {
+    /// The full image this film is part of.
+    pub width: u32,
+    pub height: u32,
+    pub region: Region,
+    /// Radiance sums (f64: thousands of passes add without losing digits).
+    l: Vec<DVec3>,
+    /// Sums of the camera ray's transmittance (mean over channels).
+    transmittance: Vec<f64>,
+    /// AOV sums, when they are kept.
+    aovs: Option<Vec<AovSums>>,
+    /// Samples per pixel so far.
+    samples: Vec<u32>,
+}
+
+impl Film {
+    /// An empty film over `region` of a `width` x `height` image, with AOV
+    /// sums when `aovs`.
+    pub fn new(width: u32, height: u32, region: Region, aovs: bool) -> Self {
+        let n = region.pixels();
+        Self {
+            width,
+            height,
+            region,
+            l: vec![DVec3::ZERO; n],
+            transmittance: vec![0.0; n],
+            aovs: aovs.then(|| vec![AovSums::default(); n]),
+            samples: vec![0; n],
+        }
+    }
+
+    /// Bytes a film of `pixels` pixels takes, for memory checks before a
+    /// render.
+    pub fn bytes_for(pixels: usize, aovs: bool) -> usize {
+        pixels
+            * (std::mem::size_of::<DVec3>()
+                + 8
+                + 4
+                + if aovs {
+                    std::mem::size_of::<AovSums>()
+                } else {
+                    0
+                })
+    }
+
+    #[inline]
+    fn index(&self, x: u32, y: u32) -> usize {
+        debug_assert!(self.region.contains(x, y));
+        (y - self.region.y0) as usize * self.region.width() as usize + (x - self.region.x0) as usize
+    }
+
+    /// Adds one camera sample of pixel (x, y) (full-image coordinates). A
+    /// sample whose radiance is not finite counts with zero radiance, so
+    /// one bad path cannot spoil a pixel.
+    #[inline]
+    pub fn add(&mut self, x: u32, y: u32, s: &SampleResult) {
+        let i = self.index(x, y);
+        let finite = s.l.is_finite();
+        if finite {
+            self.l[i] += s.l.as_dvec3();
+        }
+        self.transmittance[i] += s.transmittance as f64;
+        self.samples[i] += 1;
+        if let (Some(a), true) = (&mut self.aovs, finite) {
+            a[i].direct += s.direct;
+            a[i].indirect += s.indirect;
+            a[i].emission += s.emission;
+        }
+    }
+
+    /// Adds every sum and count of `other`, a film of the same region.
+    pub fn merge(&mut self, other: &Film) -> Result<(), String> {
+        if other.region != self.region || (other.width, other.height) != (self.width, self.height) {
+            return Err("films of different regions cannot be merged".into());
+        }
+        for i in 0..self.l.len() {
+            self.l[i] += other.l[i];
+            self.transmittance[i] += other.transmittance[i];
+            self.samples[i] += other.samples[i];
+        }
+        if let (Some(a), Some(b)) = (&mut self.aovs, &other.aovs) {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.direct += y.direct;
+                x.indirect += y.indirect;
+                x.emission += y.emission;
+            }
+        }
+        Ok(())
+    }
+
+    /// Samples of pixel (x, y).
+    pub fn samples(&self, x: u32, y: u32) -> u32 {
+        self.samples[self.index(x, y)]
+    }
+
+    /// The fewest samples any pixel has.
+    pub fn min_samples(&self) -> u32 {
+        self.samples.iter().copied().min().unwrap_or(0)
+    }
+
+    fn inv(&self, i: usize) -> f64 {
+        if self.samples[i] == 0 {
+            0.0
+        } else {
+            1.0 / self.samples[i] as f64
+        }
+    }
+
+    /// Mean radiance per pixel of the region, row-major.
+    pub fn mean_rgb(&self) -> Vec<Rgb> {
+        (0..self.l.len())
+            .map(|i| (self.l[i] * self.inv(i)).as_vec3())
+            .collect()
+    }
+
+    /// Mean transmittance of the camera rays per pixel of the region.
+    pub fn mean_transmittance(&self) -> Vec<f32> {
+        (0..self.l.len())
+            .map(|i| {
+                if self.samples[i] == 0 {
+                    1.0
+                } else {
+                    (self.transmittance[i] * self.inv(i)) as f32
+                }
+            })
+            .collect()
+    }
+
+    /// The means as an image of the region: RGBA (alpha = 1 − the
+    /// transmittance along the camera ray) and, when kept, the AOV layers
+    /// `direct`, `indirect`, `emission` and `transmittance`.
+    pub fn to_image(&self) -> Result<Image, ImageError> {
+        let (w, h) = (self.region.width() as usize, self.region.height() as usize);
+        let tr = self.mean_transmittance();
+        let rgba: Vec<Vec4> = self
+            .mean_rgb()
+            .iter()
+            .zip(&tr)
+            .map(|(c, t)| c.extend((1.0 - t).clamp(0.0, 1.0)))
+            .collect();
+        let mut image = Image::from_pixels(w, h, rgba)?;
+        if let Some(a) = &self.aovs {
+            type Pick = fn(&AovSums) -> Rgb;
+            let layers: [(&str, Pick); 3] = [
+                ("direct", |s| s.direct),
+                ("indirect", |s| s.indirect),
+                ("emission", |s| s.emission),
+            ];
+            let inv: Vec<f32> = (0..a.len()).map(|i| self.inv(i) as f32).collect();
+            for (name, pick) in layers {
+                let layer = image.add_rgb_layer(name)?;
+                for (i, s) in a.iter().enumerate() {
+                    layer.set(i % w, i / w, &(pick(s) * inv[i]).to_array());
+                }
+            }
+            let layer = image.add_layer("transmittance", &["Y"])?;
+            for (i, t) in tr.iter().enumerate() {
+                layer.set(i % w, i / w, &[*t]);
+            }
+        }
+        Ok(image)
+    }
+}

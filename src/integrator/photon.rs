@@ -1,0 +1,448 @@
+//! The photon integrator: volumetric photon mapping (Jensen & Christensen
+//! 1998) with a ray marcher, progressive over passes (Knaus & Zwicker 2011).
+//!
+//! Each pass traces a fresh photon map (`crate::photon`), then every
+//! camera ray marches the volumes:
+//! - steps of at most `step` (the finest voxel by default) and at most half
+//!   an optical depth of the majorant, with one jitter per ray (stratified
+//!   midpoints); stretches the majorant grid marks empty of both extinction
+//!   and emission are skipped;
+//! - each step i of length Δ with σt at its point contributes its source S
+//!   (per unit length) as T_i·S·(1 − e^{−σtΔ})/σt, T_i the transmittance to
+//!   the step: emission, single scattering, multiple scattering;
+//! - single scattering σs·∫p·L_light is computed at one step chosen in
+//!   proportion to T·σs·(1 − e^{−σtΔ})/σt, by next-event estimation to every
+//!   light with ratio-tracked transmittance: unbiased for the march's sum at
+//!   the cost of one shadow ray per light instead of one per step;
+//! - multiple scattering comes from the photons, which carry only light that
+//!   has scattered at least once: with the beam estimate one BVH traversal
+//!   along the marched part of the ray, with the point estimate a k-nearest
+//!   query at every step;
+//! - the march ends with Russian roulette once the transmittance is small.
+//!
+//! Progressive: pass i (from 1) shrinks the photons' radii by
+//! i^((α−1)/2) (beams, a 2-D kernel) or the search radius by i^((α−1)/3)
+//! (points), so the image, the mean over passes, converges to the
+//! path-traced answer; memory is that of one pass.
+//!
+//! Photons per pass are kept to about `photons` stored ones: in dense media
+//! a photon scatters hundreds of times, and the probability of storing a
+//! collision (its power divided by it) comes from the previous pass's count
+//! (from a pilot of 1/32 of the photons before the first pass), so the map
+//! stays the same size and the image stays deterministic.
+
+use super::path::direct_light;
+use super::{Integrator, SampleKey, SampleResult};
+use crate::error::Result;
+use crate::photon::beam::BeamMap;
+use crate::photon::emitter::Emitters;
+use crate::photon::map::{density_radii, median, PointMap};
+use crate::photon::{self, Photon};
+use crate::sampling::{roulette, Rng};
+use crate::world::World;
+use crate::Rgb;
+use glam::Vec3;
+use std::cell::RefCell;
+
+/// Which photon estimate the camera rays use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Estimate {
+    /// The beam radiance estimate (Jarosz, Zwicker & Jensen 2008): every
+    /// photon's sphere the camera ray crosses, found by one BVH traversal.
+    #[default]
+    Beam,
+    /// The point estimate at each step of the march: the k nearest photons,
+    /// Σ p·Φ / (4/3·π·r³) (Jensen & Christensen 1998).
+    Point,
+}
+
+impl Estimate {
+    /// The spelling used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Estimate::Beam => "beam",
+            Estimate::Point => "point",
+        }
+    }
+}
+
+/// Settings of the photon integrator (`[render]` keys), with their defaults.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PhotonSettings {
+    /// Photons emitted per pass (`photons`).
+    pub photons: u32,
+    /// Neighbours that set a photon's radius (`k`).
+    pub k: u32,
+    /// Largest radius in the first pass, world units (`radius`); `None`:
+    /// automatic from the photon density.
+    pub radius: Option<f32>,
+    /// Knaus & Zwicker's α in (0, 1] (`alpha`): radii shrink as
+    /// i^((α − 1)/3) for points and i^((α − 1)/2) for beams over passes i.
+    pub alpha: f32,
+    /// Length of a step of the camera-ray march, world units (`step`);
+    /// `None`: the finest voxel of the volumes.
+    pub step: Option<f32>,
+    /// The photon estimate (`estimate`).
+    pub estimate: Estimate,
+}
+
+impl Default for PhotonSettings {
+    fn default() -> Self {
+        Self {
+            photons: 200_000,
+            k: 32,
+            radius: None,
+            alpha: 2.0 / 3.0,
+            step: None,
+            estimate: Estimate::Beam,
+        }
+    }
+}
+
+/// Largest optical depth of the majorant over one march step.
+const MAX_STEP_TAU: f32 = 0.5;
+
+/// The march plays Russian roulette once the transmittance is below this.
+const MARCH_RR: f32 = 0.02;
+
+/// Photons stored per photon emitted, on average, in a pass.
+const STORED_PER_EMITTED: f32 = 1.0;
+
+/// A pass's photon map, for the estimate in use.
+enum Map {
+    Beam(BeamMap),
+    Point(PointMap),
+}
+
+/// One step of a camera ray's march.
+#[derive(Debug, Clone, Copy)]
+struct MarchStep {
+    /// Start of the step along the ray, and its length.
+    t0: f32,
+    dt: f32,
+    /// Transmittance from the camera to the step's start.
+    tr: Rgb,
+    sigma_t: Rgb,
+    sigma_s: Rgb,
+    /// ∫ transmittance over the step: T·(1 − e^{−σtΔ})/σt per channel.
+    w: Rgb,
+    /// Where the optics were looked up.
+    p: Vec3,
+}
+
+thread_local! {
+    static STEPS: RefCell<Vec<MarchStep>> = const { RefCell::new(Vec::new()) };
+}
+
+#[inline]
+fn luminance(c: Rgb) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// What the passes so far did.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PhotonTotals {
+    pub passes: u32,
+    pub emitted: u64,
+    pub stored: u64,
+    /// Photons in the last pass's map.
+    pub last_stored: u64,
+    /// Largest photon radius of the first pass (world units).
+    pub r_max: f32,
+}
+
+/// Volumetric photon mapping with a ray marcher; see the module docs.
+pub struct PhotonIntegrator {
+    settings: PhotonSettings,
+    max_bounces: u32,
+    seed: u64,
+    emitters: Option<Emitters>,
+    step: f32,
+    /// The first pass's largest radius (automatic or `radius`).
+    r_max: Option<f32>,
+    /// Probability of storing an eligible collision in the next pass.
+    store: Option<f32>,
+    map: Option<Map>,
+    /// The point estimate's search radius in this pass.
+    search_radius: f32,
+    totals: PhotonTotals,
+}
+
+impl PhotonIntegrator {
+    pub fn new(
+        world: &World,
+        settings: PhotonSettings,
+        max_bounces: u32,
+        seed: u64,
+    ) -> Result<Self> {
+        let finest = world
+            .media
+            .volumes()
+            .iter()
+            .map(|v| v.voxel_length())
+            .fold(f32::INFINITY, f32::min);
+        let step = settings
+            .step
+            .unwrap_or(if finest.is_finite() { finest } else { 1.0 });
+        Ok(Self {
+            settings,
+            max_bounces,
+            seed,
+            emitters: Emitters::new(world),
+            step,
+            r_max: settings.radius,
+            store: None,
+            map: None,
+            search_radius: 0.0,
+            totals: PhotonTotals::default(),
+        })
+    }
+
+    /// What the passes so far did.
+    pub fn totals(&self) -> PhotonTotals {
+        self.totals
+    }
+
+    /// The probability of storing a collision that keeps about
+    /// `STORED_PER_EMITTED` stored photons per emitted one, given
+    /// `eligible` collisions from `emitted` photons.
+    fn store_probability(&self, eligible: u64, emitted: u64) -> f32 {
+        let target = STORED_PER_EMITTED as f64 * self.settings.photons as f64;
+        let expected = eligible as f64 * self.settings.photons as f64 / emitted.max(1) as f64;
+        if expected <= target {
+            1.0
+        } else {
+            (target / expected).clamp(1e-6, 1.0) as f32
+        }
+    }
+
+    /// The radii of a pass's photons: the density radius, at most the first
+    /// pass's largest radius, shrunk for pass `pass` (0-based).
+    fn radii(&mut self, photons: &[Photon], world: &World, pass: u32) -> Vec<f32> {
+        let k = self.settings.k;
+        // A first guess of the density radius from the photons' spread in
+        // the volumes' bounds, then one refinement on cells of about the
+        // radius itself.
+        let (lo, hi) = world.media.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let volume = (hi - lo).max(Vec3::splat(1e-6)).element_product();
+        let rho = photons.len().max(1) as f32 / volume;
+        let guess = (3.0 * k as f32 / (4.0 * std::f32::consts::PI * rho)).cbrt();
+        // (One photon in 16 has a sixteenth of the density: its radii are
+        // 16^(1/3) times larger.)
+        let sample: Vec<Photon> = photons.iter().step_by(16).copied().collect();
+        let first = median(&density_radii(&sample, k, guess, f32::INFINITY)) / 16f32.cbrt();
+        let cell = (first / 1.5).max(1e-6);
+        let r_max = *self.r_max.get_or_insert_with(|| 4.0 * first);
+        self.totals.r_max = r_max;
+        let shrink = ((pass + 1) as f32).powf((self.settings.alpha - 1.0) / 2.0);
+        let mut r = density_radii(photons, k, cell, r_max);
+        for x in &mut r {
+            *x *= shrink;
+        }
+        r
+    }
+}
+
+impl Integrator for PhotonIntegrator {
+    fn name(&self) -> &'static str {
+        "photon"
+    }
+
+    fn begin_pass(&mut self, world: &World, pass: u32) {
+        self.map = None;
+        let Some(emitters) = &self.emitters else {
+            return;
+        };
+        let n = self.settings.photons;
+        let store = match self.store {
+            Some(s) => s,
+            None => {
+                // A pilot, in a stream of its own, counts what storing every
+                // collision would keep.
+                let pilot = (n / 32).max(256).min(n);
+                let (_, st) = photon::trace(
+                    world,
+                    emitters,
+                    pilot,
+                    self.seed,
+                    u32::MAX,
+                    self.max_bounces,
+                    0.0,
+                );
+                self.store_probability(st.eligible, st.emitted)
+            }
+        };
+        let (photons, st) =
+            photon::trace(world, emitters, n, self.seed, pass, self.max_bounces, store);
+        self.store = Some(self.store_probability(st.eligible, st.emitted));
+        self.totals.passes += 1;
+        self.totals.emitted += st.emitted;
+        self.totals.stored += st.stored;
+        self.totals.last_stored = st.stored;
+        if photons.is_empty() {
+            return;
+        }
+        self.map = match self.settings.estimate {
+            Estimate::Beam => {
+                let radius = self.radii(&photons, world, pass);
+                BeamMap::new(photons, radius).map(Map::Beam)
+            }
+            Estimate::Point => {
+                if self.r_max.is_none() {
+                    self.radii(&photons, world, 0);
+                }
+                let r_max = self.r_max.unwrap_or(1.0);
+                self.search_radius =
+                    r_max * ((pass + 1) as f32).powf((self.settings.alpha - 1.0) / 3.0);
+                PointMap::new(photons).map(Map::Point)
+            }
+        };
+    }
+
+    fn li(&self, world: &World, o: Vec3, d: Vec3, rng: &mut Rng, _key: SampleKey) -> SampleResult {
+        STEPS.with(|s| {
+            let mut steps = s.borrow_mut();
+            steps.clear();
+            self.march(world, o, d, rng, &mut steps)
+        })
+    }
+
+    fn attributes(&self) -> Vec<(String, String)> {
+        let s = &self.settings;
+        let t = &self.totals;
+        let mut a = vec![
+            ("vdbphoton/photons_per_pass".into(), s.photons.to_string()),
+            ("vdbphoton/photons_emitted".into(), t.emitted.to_string()),
+            ("vdbphoton/photons_stored".into(), t.stored.to_string()),
+            ("vdbphoton/k".into(), s.k.to_string()),
+            ("vdbphoton/alpha".into(), format!("{}", s.alpha)),
+            ("vdbphoton/step".into(), format!("{}", self.step)),
+            ("vdbphoton/estimate".into(), s.estimate.name().into()),
+            ("vdbphoton/radius".into(), format!("{}", t.r_max)),
+        ];
+        if let Some(p) = self.store {
+            a.push(("vdbphoton/store_probability".into(), format!("{p}")));
+        }
+        a
+    }
+}
+
+impl PhotonIntegrator {
+    /// The march of one camera ray; see the module docs.
+    fn march(
+        &self,
+        world: &World,
+        o: Vec3,
+        d: Vec3,
+        rng: &mut Rng,
+        steps: &mut Vec<MarchStep>,
+    ) -> SampleResult {
+        let media = &world.media;
+        let mut res = SampleResult::default();
+        let mut tr = Rgb::ONE;
+        let mut ended = false;
+        let jitter = rng.next_f32();
+        media.for_each_segment(o, d, 0.0, f32::INFINITY, |seg| {
+            if seg.max_density <= 0.0 && seg.emission <= 0.0 {
+                return true;
+            }
+            let len = seg.t1 - seg.t0;
+            let mut target = self.step;
+            if seg.max_density > 0.0 {
+                target = target.min(MAX_STEP_TAU / seg.max_density);
+            }
+            let n = (len / target).ceil().clamp(1.0, 1e6) as u32;
+            let dt = len / n as f32;
+            for i in 0..n {
+                let t0 = seg.t0 + i as f32 * dt;
+                let p = o + d * (t0 + jitter * dt);
+                let m = media.eval(p);
+                let st = m.sigma_t();
+                let att = (-st * dt).map(f32::exp);
+                let w = Rgb::select(
+                    st.cmpgt(Rgb::splat(1e-6)),
+                    (Rgb::ONE - att) / st.max(Rgb::splat(1e-6)),
+                    Rgb::splat(dt),
+                ) * tr;
+                let e = w * m.emission;
+                res.emission += e;
+                steps.push(MarchStep {
+                    t0,
+                    dt,
+                    tr,
+                    sigma_t: st,
+                    sigma_s: m.sigma_s,
+                    w,
+                    p,
+                });
+                tr *= att;
+                if tr.max_element() < MARCH_RR && !roulette(&mut tr, MARCH_RR, rng) {
+                    ended = true;
+                    return false;
+                }
+            }
+            true
+        });
+        let t_end = if ended {
+            steps.last().map_or(0.0, |s| s.t0 + s.dt)
+        } else {
+            f32::INFINITY
+        };
+        let wo = -d;
+        // Single scattering at one step chosen by T·σs·(1 − e^{−σtΔ})/σt.
+        let total: f32 = steps.iter().map(|s| luminance(s.w * s.sigma_s)).sum();
+        if total > 0.0 && (!world.lights.is_empty() || !world.environment.is_black()) {
+            let mut x = rng.next_f32() * total;
+            let mut chosen = steps.len() - 1;
+            for (i, s) in steps.iter().enumerate() {
+                let c = luminance(s.w * s.sigma_s);
+                if x < c {
+                    chosen = i;
+                    break;
+                }
+                x -= c;
+            }
+            let s = steps[chosen];
+            let prob = luminance(s.w * s.sigma_s) / total;
+            if prob > 0.0 {
+                let phase = media.phase_at(s.p, rng.next_f32());
+                let ls = direct_light(world, media, s.p, wo, &phase, false, rng);
+                res.direct = s.w * s.sigma_s * ls / prob;
+            }
+        }
+        // Multiple scattering from the photon map.
+        match &self.map {
+            Some(Map::Beam(map)) => {
+                let transmittance = |t: f32| {
+                    let i = steps.partition_point(|s| s.t0 <= t);
+                    if i == 0 {
+                        return Rgb::ONE;
+                    }
+                    let s = &steps[i - 1];
+                    s.tr * (-s.sigma_t * (t - s.t0).min(s.dt)).map(f32::exp)
+                };
+                let (light, emitted) = map.gather(media, o, d, t_end, transmittance);
+                res.indirect = light;
+                res.emission += emitted;
+            }
+            Some(Map::Point(map)) => {
+                for s in steps.iter() {
+                    if s.sigma_s.max_element() <= 0.0 {
+                        continue;
+                    }
+                    let (light, emitted) =
+                        map.estimate(media, s.p, wo, self.settings.k, self.search_radius);
+                    res.indirect += s.w * light;
+                    res.emission += s.w * emitted;
+                }
+            }
+            None => {}
+        }
+        res.l = res.direct + res.indirect + res.emission;
+        if !ended {
+            res.l += tr * world.environment.le(d);
+            res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
+        }
+        res
+    }
+}

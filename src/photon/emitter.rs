@@ -1,0 +1,219 @@
+//! Where photons come from: every light, the environment and the emissive
+//! media, chosen in proportion to their power.
+//!
+//! Lights at infinity (suns, the environment) emit from a disk of the
+//! volumes' bounding sphere per direction, point and spot lights towards it
+//! ([`crate::light::Light::sample_le`]). Emissive media emit from their
+//! majorant cells, chosen by emitted power (the mean emission over a few
+//! points of the cell, times its volume, and never less than a twentieth of
+//! the cell's emission bound so that no cell that may emit is left out),
+//! then a uniform point in the cell and an isotropic direction: a photon
+//! from point x carries 4π·ε(x)·V_cell / P(cell), ε being the radiance
+//! emitted per unit length (σa·Le).
+
+use crate::light::{BoundingSphere, EmittedRay};
+use crate::medium::Media;
+use crate::sampling::{self, Distribution1D, Rng};
+use crate::world::World;
+use crate::Rgb;
+use glam::{IVec3, Vec3};
+use std::f32::consts::PI;
+
+#[derive(Debug, Clone, Copy)]
+enum Source {
+    Light(usize),
+    Environment,
+    Media,
+}
+
+/// An emissive majorant cell.
+#[derive(Debug, Clone, Copy)]
+struct EmissiveCell {
+    volume: usize,
+    /// Index-space lower corner and edge.
+    lo: Vec3,
+    size: f32,
+    /// World-space volume.
+    volume_world: f32,
+}
+
+/// What a photon starts with.
+#[derive(Debug, Clone, Copy)]
+pub struct Emission {
+    pub ray: EmittedRay,
+    /// True for photons emitted by the media (their first collision is
+    /// already light the march does not compute).
+    pub from_media: bool,
+}
+
+/// Every photon source of a world, with the distribution that picks one.
+#[derive(Debug, Clone)]
+pub struct Emitters {
+    bounds: BoundingSphere,
+    sources: Vec<Source>,
+    pick: Distribution1D,
+    cells: Vec<EmissiveCell>,
+    pick_cell: Option<Distribution1D>,
+    /// Total power per source (W, the estimate used to pick them).
+    power: Vec<Rgb>,
+}
+
+#[inline]
+fn avg(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+impl Emitters {
+    /// The sources of `world`; `None` when nothing emits towards the
+    /// volumes.
+    pub fn new(world: &World) -> Option<Self> {
+        let (lo, hi) = world.media.bounds()?;
+        let bounds = BoundingSphere::of_box(lo, hi);
+        let mut sources = Vec::new();
+        let mut power = Vec::new();
+        for (i, l) in world.lights.iter().enumerate() {
+            let p = l.power(bounds);
+            if avg(p) > 0.0 {
+                sources.push(Source::Light(i));
+                power.push(p);
+            }
+        }
+        if !world.environment.is_black() {
+            let p = world.environment.power(bounds);
+            if avg(p) > 0.0 {
+                sources.push(Source::Environment);
+                power.push(p);
+            }
+        }
+        let (cells, weights) = emissive_cells(&world.media);
+        let pick_cell = if weights.iter().any(|&w| w > 0.0) {
+            let total: f32 = weights.iter().sum();
+            sources.push(Source::Media);
+            power.push(Rgb::splat(4.0 * PI * total));
+            Some(Distribution1D::new(&weights))
+        } else {
+            None
+        };
+        if sources.is_empty() {
+            return None;
+        }
+        let pick = Distribution1D::new(&power.iter().map(|p| avg(*p)).collect::<Vec<_>>());
+        Some(Self {
+            bounds,
+            sources,
+            pick,
+            cells,
+            pick_cell,
+            power,
+        })
+    }
+
+    /// The sphere photons from infinity aim at.
+    pub fn bounds(&self) -> BoundingSphere {
+        self.bounds
+    }
+
+    /// Total power of all sources (W, as estimated for picking them).
+    pub fn total_power(&self) -> Rgb {
+        self.power.iter().copied().sum()
+    }
+
+    /// Samples a photon: its ray and its power divided by the probability of
+    /// the whole sample (source, position, direction). Divide by the number
+    /// of photons emitted for the power each one carries.
+    pub fn sample(&self, world: &World, rng: &mut Rng) -> Option<Emission> {
+        let (_, p_source, k) = self.pick.sample_continuous(rng.next_f32());
+        let p_source = p_source / self.pick.count() as f32;
+        if p_source <= 0.0 {
+            return None;
+        }
+        let (u, v) = (rng.next_vec2(), rng.next_vec2());
+        let (ray, from_media) = match self.sources[k] {
+            Source::Light(i) => (world.lights[i].sample_le(self.bounds, u, v)?, false),
+            Source::Environment => (world.environment.sample_le(self.bounds, u, v)?, false),
+            Source::Media => (self.sample_media(&world.media, u, v, rng)?, true),
+        };
+        Some(Emission {
+            ray: EmittedRay {
+                power: ray.power / p_source,
+                ..ray
+            },
+            from_media,
+        })
+    }
+
+    fn sample_media(
+        &self,
+        media: &Media,
+        u: glam::Vec2,
+        v: glam::Vec2,
+        rng: &mut Rng,
+    ) -> Option<EmittedRay> {
+        let dist = self.pick_cell.as_ref()?;
+        let (_, pdf, i) = dist.sample_continuous(rng.next_f32());
+        let p_cell = pdf / dist.count() as f32;
+        let c = self.cells[i];
+        let vol = &media.volumes()[c.volume];
+        let pi = c.lo + Vec3::new(u.x, u.y, v.x) * c.size;
+        let p = vol.world_from_index().transform_point3(pi);
+        let e = media.eval(p).emission;
+        if e.max_element() <= 0.0 || p_cell <= 0.0 {
+            return None;
+        }
+        let d = sampling::sample_uniform_sphere(glam::Vec2::new(v.y, rng.next_f32()));
+        Some(EmittedRay {
+            o: p,
+            d,
+            power: e * (4.0 * PI * c.volume_world / p_cell),
+        })
+    }
+}
+
+/// The emissive cells of every volume and their weights (emitted power
+/// estimate per cell: mean emission at 8 stratified points × world volume,
+/// at least a twentieth of the bound × volume).
+fn emissive_cells(media: &Media) -> (Vec<EmissiveCell>, Vec<f32>) {
+    let mut cells = Vec::new();
+    let mut weights = Vec::new();
+    for (vi, v) in media.volumes().iter().enumerate() {
+        let g = v.majorant_grid();
+        if !g.is_emissive() {
+            continue;
+        }
+        let m = v.world_from_index().matrix3;
+        let det = m.determinant().abs();
+        let res = g.resolution();
+        for z in 0..res.z {
+            for y in 0..res.y {
+                for x in 0..res.x {
+                    let c = IVec3::new(x, y, z);
+                    let bound = g.cell_emission(c);
+                    if bound <= 0.0 {
+                        continue;
+                    }
+                    let (lo, size) = g.cell_box(c);
+                    let volume_world = det * size * size * size;
+                    let mut mean = 0.0;
+                    for k in 0..8 {
+                        let o = Vec3::new(
+                            (k & 1) as f32 * 0.5 + 0.25,
+                            ((k >> 1) & 1) as f32 * 0.5 + 0.25,
+                            (k >> 2) as f32 * 0.5 + 0.25,
+                        );
+                        let p = v.world_from_index().transform_point3(lo + o * size);
+                        mean += v.eval(p).emission.max(Rgb::ZERO).element_sum() / 3.0;
+                    }
+                    mean /= 8.0;
+                    cells.push(EmissiveCell {
+                        volume: vi,
+                        lo,
+                        size,
+                        volume_world,
+                    });
+                    weights.push(mean.max(0.05 * bound) * volume_world);
+                }
+            }
+        }
+    }
+    (cells, weights)
+}

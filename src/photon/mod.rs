@@ -1,0 +1,192 @@
+//! Photon tracing and the volume photon map (Jensen & Christensen 1998,
+//! "Efficient simulation of light transport in scenes with participating
+//! media using photon maps").
+//!
+//! Photons leave the sources in proportion to their power
+//! ([`emitter::Emitters`]) and fly by delta tracking through σt(x) on the
+//! shared tracker ([`crate::tracking::sample_t_maj`] and
+//! [`crate::tracking::collide`]: spectral tracking, so coloured media stay
+//! unbiased, with absorption as a weight). At each real collision the
+//! photon's power is multiplied by the collision's weight (σs/σt for grey
+//! media) and Russian roulette against its starting power decides whether
+//! it goes on ([`crate::sampling::roulette`]): for a grey medium of albedo
+//! a it survives with probability a and keeps its power, Jensen's rule. A
+//! photon that goes on samples its new direction from the phase function.
+//!
+//! What is stored, at a collision, is the power after the collision's
+//! weight: the density of stored power per unit volume is then
+//! σs·∫L dω, so Σ p·Φ / V is the in-scattered radiance σs·L_s already
+//! (multiplying by σs again is the classic mistake). Only photons that have
+//! scattered at least once before arriving are stored: single scattering
+//! is computed exactly by the camera-ray march. Photons emitted by the
+//! media are stored from their first collision (the march does not compute
+//! scattered emission). Up to `max_bounces` scattering events count, as
+//! for paths.
+//!
+//! A photon is stored with probability `store` (and its power divided by
+//! it): in dense media a photon scatters hundreds of times, and thinning
+//! the stored collisions keeps a pass's map to a chosen size without bias.
+//!
+//! Photon `i` of pass `p` draws its numbers from the stream (seed, p, i) in
+//! the photon domain, and photons are traced in chunks collected in index
+//! order, so the map is the same on any number of threads.
+
+pub mod beam;
+pub mod emitter;
+pub mod map;
+
+use crate::sampling::{roulette, Domain, Rng};
+use crate::tracking::{collide, sample_t_maj};
+use crate::world::World;
+use crate::Rgb;
+use emitter::Emitters;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// A stored photon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Photon {
+    pub p: Vec3,
+    /// Unit direction towards where it came from (minus its direction of
+    /// travel): the `wi` of the phase function.
+    pub wi: Vec3,
+    /// Power (W) after the collision's weight, over the photons emitted.
+    pub power: Rgb,
+    /// The volume whose phase function scatters it (bits 0-30) and whether
+    /// it was emitted by the media (bit 31).
+    tag: u32,
+}
+
+const FROM_MEDIA: u32 = 1 << 31;
+
+impl Photon {
+    /// The index of the volume whose phase function applies here.
+    pub fn volume(&self) -> usize {
+        (self.tag & !FROM_MEDIA) as usize
+    }
+    /// Whether the photon was emitted by the media (its light is emission).
+    pub fn from_media(&self) -> bool {
+        self.tag & FROM_MEDIA != 0
+    }
+}
+
+/// What a pass of photon tracing did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TraceStats {
+    /// Photons emitted.
+    pub emitted: u64,
+    /// Collisions at which a photon could have been stored.
+    pub eligible: u64,
+    /// Photons stored.
+    pub stored: u64,
+}
+
+/// Photons emitted per chunk of work (the unit of parallelism).
+const CHUNK: u32 = 1024;
+
+/// Traces `n` photons of pass `pass`, storing each eligible collision with
+/// probability `store` (in (0, 1]).
+pub fn trace(
+    world: &World,
+    emitters: &Emitters,
+    n: u32,
+    seed: u64,
+    pass: u32,
+    max_bounces: u32,
+    store: f32,
+) -> (Vec<Photon>, TraceStats) {
+    let chunks = n.div_ceil(CHUNK);
+    let parts: Vec<(Vec<Photon>, u64)> = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let mut out = Vec::new();
+            let mut eligible = 0u64;
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let mut rng = Rng::new(Domain::Photon, seed, pass as u64, i as u64);
+                eligible += trace_one(world, emitters, n, max_bounces, store, &mut rng, &mut out);
+            }
+            (out, eligible)
+        })
+        .collect();
+    let stored = parts.iter().map(|p| p.0.len() as u64).sum();
+    let eligible = parts.iter().map(|p| p.1).sum();
+    let mut photons = Vec::with_capacity(stored as usize);
+    for (p, _) in parts {
+        photons.extend(p);
+    }
+    (
+        photons,
+        TraceStats {
+            emitted: n as u64,
+            eligible,
+            stored,
+        },
+    )
+}
+
+/// One photon's flight; returns the number of eligible collisions.
+fn trace_one(
+    world: &World,
+    emitters: &Emitters,
+    n: u32,
+    max_bounces: u32,
+    store: f32,
+    rng: &mut Rng,
+    out: &mut Vec<Photon>,
+) -> u64 {
+    let Some(e) = emitters.sample(world, rng) else {
+        return 0;
+    };
+    let media = &world.media;
+    let mut power = e.ray.power / n as f32;
+    // Russian roulette keeps the power near what the photon started with.
+    let threshold = power.max_element();
+    if threshold.is_nan() || threshold <= 0.0 {
+        return 0;
+    }
+    let media_bit = if e.from_media { FROM_MEDIA } else { 0 };
+    let (mut o, mut d) = (e.ray.o, e.ray.d);
+    let mut collisions = 0u32;
+    let mut eligible = 0u64;
+    loop {
+        let mut next: Option<(Vec3, Vec3)> = None;
+        sample_t_maj(media, o, d, f32::INFINITY, rng, |c, rng| {
+            let Some(step) = collide(c, power, rng) else {
+                return false;
+            };
+            power *= step.weight;
+            if !step.scatter {
+                return true;
+            }
+            collisions += 1;
+            if collisions > max_bounces {
+                return false;
+            }
+            if collisions >= 2 || e.from_media {
+                eligible += 1;
+                if store >= 1.0 || rng.next_f32() < store {
+                    out.push(Photon {
+                        p: c.p,
+                        wi: -d,
+                        power: power / store,
+                        tag: step.volume as u32 | media_bit,
+                    });
+                }
+            }
+            if !roulette(&mut power, threshold, rng) {
+                return false;
+            }
+            if let Some((nd, _)) = step.phase.sample_travel(d, rng.next_vec2()) {
+                next = Some((c.p, nd));
+            }
+            false
+        });
+        match next {
+            Some((p, nd)) if power.is_finite() => {
+                o = p;
+                d = nd;
+            }
+            _ => return eligible,
+        }
+    }
+}

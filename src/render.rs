@@ -1,0 +1,403 @@
+//! One render from a scene description to its files: check the outputs,
+//! load the world, choose and build the integrator, run passes until a
+//! sample count or a time budget, write checkpoints, assemble the AOVs and
+//! write the EXR and the PNG preview. The CLI, frame sequences and tiles
+//! all go through [`render_scene`]; it reports through a [`Reporter`] and
+//! prints nothing itself.
+
+use crate::error::{Error, Result};
+use crate::film::{Film, Region};
+use crate::integrator::{self, Integrator, PathIntegrator, PhotonIntegrator};
+use crate::scene::{Integrator as IntegratorChoice, SceneDesc};
+use crate::world::World;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// A duration as the command line takes it: seconds (`90`, `1.5`) or a
+/// number with a unit (`90s`, `5m`, `1h`).
+pub fn parse_duration(s: &str) -> std::result::Result<Duration, String> {
+    let t = s.trim();
+    let (num, scale) = if let Some(n) = t.strip_suffix('h') {
+        (n, 3600.0)
+    } else if let Some(n) = t.strip_suffix('m') {
+        (n, 60.0)
+    } else if let Some(n) = t.strip_suffix('s') {
+        (n, 1.0)
+    } else {
+        (t, 1.0)
+    };
+    let v: f64 = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a duration (e.g. 90, 90s, 5m, 1h)"))?;
+    let secs = v * scale;
+    if !(secs.is_finite() && secs > 0.0 && secs <= 1e7) {
+        return Err(format!(
+            "'{s}': a duration must be more than 0 and at most 10^7 seconds"
+        ));
+    }
+    Ok(Duration::from_secs_f64(secs))
+}
+
+/// How a render runs, beside what the scene says.
+#[derive(Debug, Clone, Default)]
+pub struct RenderOptions {
+    /// Worker threads (`None`: one per core).
+    pub threads: Option<usize>,
+    /// Run passes until this much wall-clock time has gone (at least one
+    /// pass; a pass is started only when the last one's duration still
+    /// fits), instead of until the scene's `spp`.
+    pub time_limit: Option<Duration>,
+    /// Rewrite the outputs this often while rendering (each write atomic, so
+    /// the last complete checkpoint is always a valid image).
+    pub checkpoint: Option<Duration>,
+    /// More header attributes (e.g. the scene file's name).
+    pub attributes: Vec<(String, String)>,
+}
+
+/// Where a render is.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress {
+    /// Share of the work done, 0 to 1.
+    pub fraction: f64,
+    /// Seconds since the render's first pass started.
+    pub elapsed: f64,
+    /// Seconds still to go, when it can be told.
+    pub eta: Option<f64>,
+    /// Passes finished.
+    pub passes: u32,
+}
+
+/// What a render tells whoever runs it. Called from worker threads.
+pub trait Reporter: Sync {
+    /// Something the user should know (a grid that has no effect, ...).
+    fn warning(&self, _message: &str) {}
+    /// Progress within the render, after every tile.
+    fn progress(&self, _p: Progress) {}
+    /// A checkpoint was written.
+    fn checkpoint(&self, _path: &Path, _passes: u32) {}
+}
+
+/// A reporter that reports nothing.
+pub struct Silent;
+impl Reporter for Silent {}
+
+/// What a finished render did.
+#[derive(Debug, Clone)]
+pub struct Summary {
+    pub integrator: &'static str,
+    pub passes: u32,
+    /// Camera samples per pixel.
+    pub spp: u32,
+    pub width: u32,
+    pub height: u32,
+    pub threads: usize,
+    pub load_seconds: f64,
+    pub render_seconds: f64,
+    pub write_seconds: f64,
+    /// The files written: the EXR, then the preview if any.
+    pub outputs: Vec<PathBuf>,
+}
+
+/// Checks before any work that the outputs can be written: the EXR must end
+/// in `.exr` and the preview in `.png` (so that one format never lands
+/// under the other's name), and their folders are created when missing, so
+/// a finished render is never lost to a missing folder.
+pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
+    let ext_is = |p: &Path, e: &str| {
+        p.extension()
+            .and_then(|x| x.to_str())
+            .is_some_and(|x| x.eq_ignore_ascii_case(e))
+    };
+    if !ext_is(exr, "exr") {
+        return Err(Error::Argument(format!(
+            "output '{}': the image is written as OpenEXR, so its name must end in .exr",
+            exr.display()
+        )));
+    }
+    if let Some(p) = preview {
+        if !ext_is(p, "png") {
+            return Err(Error::Argument(format!(
+                "preview '{}': the preview is a PNG, so its name must end in .png",
+                p.display()
+            )));
+        }
+    }
+    for p in std::iter::once(exr).chain(preview) {
+        if p.is_dir() {
+            return Err(Error::Argument(format!(
+                "output '{}' is a directory",
+                p.display()
+            )));
+        }
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        std::fs::create_dir_all(dir).map_err(|e| {
+            Error::Argument(format!(
+                "cannot create the folder '{}' for '{}': {e}",
+                dir.display(),
+                p.display()
+            ))
+        })?;
+        // Can a file be made there? (A read-only folder fails here, not
+        // after the render.)
+        let probe = dir.join(format!(".vdbphoton-probe-{}", std::process::id()));
+        std::fs::write(&probe, b"").map_err(|e| {
+            Error::Argument(format!(
+                "cannot write into '{}' (for '{}'): {e}",
+                dir.display(),
+                p.display()
+            ))
+        })?;
+        let _ = std::fs::remove_file(&probe);
+    }
+    Ok(())
+}
+
+/// The integrator `auto` stands for, and why, for a loaded world: the
+/// photon integrator, unless every volume is optically thin (where most
+/// light scatters once, which the marcher and the path tracer both compute
+/// exactly, and a photon map only adds blur) or nothing scatters.
+pub fn choose_integrator(world: &World) -> (IntegratorChoice, &'static str) {
+    let thick = world.media.volumes().iter().any(|v| {
+        let (lo, hi) = v.world_bounds();
+        let extent = (hi - lo).max_element();
+        v.sigma_t_per_density() * v.density().value_range().map_or(0.0, |r| r[1]) * extent > 2.0
+    });
+    if thick {
+        (
+            IntegratorChoice::Photon,
+            "optically thick volume: photon mapping",
+        )
+    } else {
+        (
+            IntegratorChoice::Path,
+            "optically thin volumes: the path tracer",
+        )
+    }
+}
+
+/// Builds the integrator a scene asks for.
+pub fn make_integrator(desc: &SceneDesc, world: &World) -> Result<Box<dyn Integrator>> {
+    let r = &desc.render;
+    let choice = match r.integrator {
+        IntegratorChoice::Auto => choose_integrator(world).0,
+        c => c,
+    };
+    Ok(match choice {
+        IntegratorChoice::Path | IntegratorChoice::Auto => {
+            Box::new(PathIntegrator::new(r.max_bounces))
+        }
+        IntegratorChoice::Photon => Box::new(PhotonIntegrator::new(
+            world,
+            r.photon,
+            r.max_bounces,
+            r.seed,
+        )?),
+    })
+}
+
+/// Header attributes of a render.
+fn attributes(
+    desc: &SceneDesc,
+    integrator: &dyn Integrator,
+    passes: u32,
+    spp: u32,
+    seconds: f64,
+    extra: &[(String, String)],
+) -> Vec<(String, String)> {
+    let r = &desc.render;
+    let mut a = vec![
+        (
+            "vdbphoton/version".to_string(),
+            env!("CARGO_PKG_VERSION").to_string(),
+        ),
+        (
+            "vdbphoton/integrator".to_string(),
+            integrator.name().to_string(),
+        ),
+        ("vdbphoton/spp".to_string(), spp.to_string()),
+        ("vdbphoton/passes".to_string(), passes.to_string()),
+        ("vdbphoton/seed".to_string(), r.seed.to_string()),
+        (
+            "vdbphoton/max_bounces".to_string(),
+            r.max_bounces.to_string(),
+        ),
+        (
+            "vdbphoton/render_seconds".to_string(),
+            format!("{seconds:.3}"),
+        ),
+    ];
+    for (k, v) in integrator.attributes() {
+        if !a.iter().any(|(x, _)| *x == k) {
+            a.push((k, v));
+        }
+    }
+    a.extend(extra.iter().cloned());
+    a
+}
+
+/// Writes the film's image to the EXR and the preview (each atomically).
+fn write_outputs(
+    desc: &SceneDesc,
+    film: &Film,
+    attrs: &[(String, String)],
+) -> Result<Vec<PathBuf>> {
+    let r = &desc.render;
+    let image = film.to_image()?;
+    crate::image::write_exr(&r.output, &image, attrs)?;
+    let mut out = vec![r.output.clone()];
+    if let Some(p) = &r.preview {
+        crate::image::write_png_preview(p, &image, r.exposure)?;
+        out.push(p.clone());
+    }
+    Ok(out)
+}
+
+/// Renders a validated scene to its outputs.
+pub fn render_scene(
+    desc: &SceneDesc,
+    opts: &RenderOptions,
+    reporter: &dyn Reporter,
+) -> Result<Summary> {
+    let r = &desc.render;
+    prepare_outputs(&r.output, r.preview.as_deref())?;
+    if opts.threads == Some(0) {
+        return Err(Error::Argument("--threads must be at least 1".into()));
+    }
+    let run = || -> Result<Summary> {
+        let world = World::load(desc)?;
+        for w in &world.warnings {
+            reporter.warning(w);
+        }
+        let mut integrator = make_integrator(desc, &world)?;
+        let region = Region::full(r.width, r.height);
+        let mut film = Film::new(r.width, r.height, region, r.aovs);
+        let per_pass = integrator.samples_per_pass().max(1);
+        let passes_wanted = r.spp.div_ceil(per_pass).max(1);
+        let t0 = Instant::now();
+        let mut last_checkpoint = Instant::now();
+        let mut passes = 0u32;
+        let mut last_pass = Duration::ZERO;
+        loop {
+            let stop = match opts.time_limit {
+                Some(limit) => passes > 0 && t0.elapsed() + last_pass > limit,
+                None => passes >= passes_wanted,
+            };
+            if stop {
+                break;
+            }
+            let tp = Instant::now();
+            integrator.begin_pass(&world, passes);
+            let done_before = passes;
+            let report = |done: usize, total: usize| {
+                let in_pass = done as f64 / total.max(1) as f64;
+                let elapsed = t0.elapsed().as_secs_f64();
+                let (fraction, eta) = match opts.time_limit {
+                    Some(limit) => {
+                        let l = limit.as_secs_f64().max(1e-9);
+                        ((elapsed / l).min(1.0), Some((l - elapsed).max(0.0)))
+                    }
+                    None => {
+                        let f = (done_before as f64 + in_pass) / passes_wanted as f64;
+                        (f, (f > 0.0).then(|| elapsed / f - elapsed))
+                    }
+                };
+                reporter.progress(Progress {
+                    fraction,
+                    elapsed,
+                    eta,
+                    passes: done_before,
+                });
+            };
+            integrator::render_pass(
+                &world,
+                integrator.as_ref(),
+                &mut film,
+                r.seed,
+                passes,
+                &report,
+            );
+            passes += 1;
+            last_pass = tp.elapsed();
+            if let Some(every) = opts.checkpoint {
+                if last_checkpoint.elapsed() >= every {
+                    let spp = passes * per_pass;
+                    let attrs = attributes(
+                        desc,
+                        integrator.as_ref(),
+                        passes,
+                        spp,
+                        t0.elapsed().as_secs_f64(),
+                        &opts.attributes,
+                    );
+                    write_outputs(desc, &film, &attrs)?;
+                    reporter.checkpoint(&r.output, passes);
+                    last_checkpoint = Instant::now();
+                }
+            }
+        }
+        let render_seconds = t0.elapsed().as_secs_f64();
+        let tw = Instant::now();
+        let spp = passes * per_pass;
+        let attrs = attributes(
+            desc,
+            integrator.as_ref(),
+            passes,
+            spp,
+            render_seconds,
+            &opts.attributes,
+        );
+        let outputs = write_outputs(desc, &film, &attrs)?;
+        Ok(Summary {
+            integrator: integrator.name(),
+            passes,
+            spp,
+            width: r.width,
+            height: r.height,
+            threads: rayon::current_num_threads(),
+            load_seconds: world.load_seconds,
+            render_seconds,
+            write_seconds: tw.elapsed().as_secs_f64(),
+            outputs,
+        })
+    };
+    match opts.threads {
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map_err(|e| Error::Argument(format!("cannot start {t} threads: {e}")))?
+            .install(run),
+        None => run(),
+    }
+}
+
+/// Keeps the last message of a progress bar from interleaving: a
+/// convenience for reporters that print from worker threads.
+pub struct Throttle {
+    last: Mutex<Option<Instant>>,
+    every: Duration,
+}
+
+impl Throttle {
+    pub fn new(every: Duration) -> Self {
+        Self {
+            last: Mutex::new(None),
+            every,
+        }
+    }
+    /// True at most once per interval (and always when `force`).
+    pub fn ready(&self, force: bool) -> bool {
+        let mut l = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        let now = Instant::now();
+        if force || l.is_none_or(|t| now - t >= self.every) {
+            *l = Some(now);
+            true
+        } else {
+            false
+        }
+    }
+}
