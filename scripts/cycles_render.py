@@ -1,5 +1,9 @@
 """Render a test scene with Blender 5.0.1 Cycles (bpy module).
 
+For vdbphoton scene files (TOML/JSON, docs/scene.md) use
+tools/blender/render_cycles.py instead; this script reads its own small JSON
+format and is kept for the white diffuse plane the scene format lacks.
+
 Usage: VENV/bin/python scripts/cycles_render.py CONFIG.json OUT.exr
 (VENV: a Python 3.11 venv with `pip install bpy==5.0.1`). Paths in CONFIG
 are relative to the config file. Example: scripts/cycles/spot_cloud.json,
