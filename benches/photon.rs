@@ -106,7 +106,7 @@ fn main() {
                 let y = (cam.height() / 2 + (i / cam.width()) % 16) as f32;
                 let d = cam.direction(glam::Vec2::new(x, y));
                 let (l, _) = beam.gather(&world.media, cam.position(), d, f32::INFINITY, |_| {
-                    glam::Vec3::ONE
+                    (glam::Vec3::ONE, 1.0)
                 });
                 sum += l.x;
             }
@@ -114,7 +114,10 @@ fn main() {
             let t = Instant::now();
             for i in 0..rays as usize {
                 let q = ph[(i * 7919) % ph.len()].p + glam::Vec3::splat(0.003);
-                sum += point.estimate(&world.media, q, glam::Vec3::X, 32, 0.05).0.x;
+                sum += point
+                    .estimate(&world.media, q, 1.0, glam::Vec3::X, 32, 0.05)
+                    .0
+                    .x;
             }
             let q = rays as f64 / secs(t);
             println!(

@@ -15,7 +15,10 @@
 //!   Cycles' `spot_attenuation`;
 //! - a sun is not visible to camera rays (Cycles' default for new lights);
 //! - the environment map is equirectangular, Z up, with Blender's mapping
-//!   u = atan2(y, −x)/(2π) + ½, v = atan2(z, hypot(x, y))/π + ½, rotated
+//!   (Cycles' `direction_to_equirectangular`, checked against a Cycles
+//!   5.0.1 render of a map whose texels encode their coordinates: +X sees
+//!   the map's centre, +Y u = ¼) u = ½ − atan2(y, x)/(2π),
+//!   v = atan2(z, hypot(x, y))/π + ½, rotated
 //!   about +Z by `rotate_z`.
 
 use crate::sampling::{self, Distribution2D};
@@ -427,18 +430,18 @@ impl EnvMap {
         let (s, c) = (-self.rotate_z).sin_cos();
         let x = c * w.x - s * w.y;
         let y = s * w.x + c * w.y;
-        let u = y.atan2(-x) / (2.0 * PI) + 0.5;
+        let u = 0.5 - y.atan2(x) / (2.0 * PI);
         let v = w.z.atan2(x.hypot(y)) / PI + 0.5;
         Vec2::new(u.rem_euclid(1.0), (1.0 - v).clamp(0.0, 1.0))
     }
 
     fn direction(&self, uv: Vec2) -> Vec3 {
-        let phi = (uv.x - 0.5) * 2.0 * PI;
+        let phi = (0.5 - uv.x) * 2.0 * PI;
         let elevation = (0.5 - uv.y) * PI;
-        // Inverse of uv(): atan2(y, -x) = phi.
+        // Inverse of uv(): atan2(y, x) = phi.
         let (sp, cp) = phi.sin_cos();
         let (se, ce) = elevation.sin_cos();
-        let x = -cp * ce;
+        let x = cp * ce;
         let y = sp * ce;
         let (s, c) = self.rotate_z.sin_cos();
         Vec3::new(c * x - s * y, s * x + c * y, se)

@@ -257,6 +257,69 @@ fn write_outputs(
     Ok(out)
 }
 
+/// When a render stops.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Stop {
+    /// After this many passes.
+    Passes(u32),
+    /// Once this much time has gone: a pass starts only while the time so
+    /// far plus the last pass's duration is within it (at least one pass).
+    Time(Duration),
+}
+
+/// Runs passes of `integrator` into `film` until `stop`, reporting progress
+/// and calling `after_pass(film, integrator, passes so far)` after each
+/// pass (checkpoints). Returns the number of passes.
+pub fn run_passes(
+    world: &World,
+    integrator: &mut dyn Integrator,
+    film: &mut Film,
+    seed: u64,
+    stop: Stop,
+    reporter: &dyn Reporter,
+    mut after_pass: impl FnMut(&Film, &dyn Integrator, u32) -> Result<()>,
+) -> Result<u32> {
+    let t0 = Instant::now();
+    let mut passes = 0u32;
+    let mut last_pass = Duration::ZERO;
+    loop {
+        let done = match stop {
+            Stop::Time(limit) => passes > 0 && t0.elapsed() + last_pass > limit,
+            Stop::Passes(n) => passes >= n,
+        };
+        if done {
+            return Ok(passes);
+        }
+        let tp = Instant::now();
+        integrator.begin_pass(world, passes);
+        let done_before = passes;
+        let report = |done: usize, total: usize| {
+            let in_pass = done as f64 / total.max(1) as f64;
+            let elapsed = t0.elapsed().as_secs_f64();
+            let (fraction, eta) = match stop {
+                Stop::Time(limit) => {
+                    let l = limit.as_secs_f64().max(1e-9);
+                    ((elapsed / l).min(1.0), Some((l - elapsed).max(0.0)))
+                }
+                Stop::Passes(n) => {
+                    let f = (done_before as f64 + in_pass) / n.max(1) as f64;
+                    (f, (f > 0.0).then(|| elapsed / f - elapsed))
+                }
+            };
+            reporter.progress(Progress {
+                fraction,
+                elapsed,
+                eta,
+                passes: done_before,
+            });
+        };
+        integrator::render_pass(world, integrator, film, seed, passes, &report);
+        passes += 1;
+        last_pass = tp.elapsed();
+        after_pass(film, integrator, passes)?;
+    }
+}
+
 /// Renders a validated scene to its outputs.
 pub fn render_scene(
     desc: &SceneDesc,
@@ -277,69 +340,40 @@ pub fn render_scene(
         let region = Region::full(r.width, r.height);
         let mut film = Film::new(r.width, r.height, region, r.aovs);
         let per_pass = integrator.samples_per_pass().max(1);
-        let passes_wanted = r.spp.div_ceil(per_pass).max(1);
+        let stop = match opts.time_limit {
+            Some(t) => Stop::Time(t),
+            None => Stop::Passes(r.spp.div_ceil(per_pass).max(1)),
+        };
         let t0 = Instant::now();
         let mut last_checkpoint = Instant::now();
-        let mut passes = 0u32;
-        let mut last_pass = Duration::ZERO;
-        loop {
-            let stop = match opts.time_limit {
-                Some(limit) => passes > 0 && t0.elapsed() + last_pass > limit,
-                None => passes >= passes_wanted,
-            };
-            if stop {
-                break;
-            }
-            let tp = Instant::now();
-            integrator.begin_pass(&world, passes);
-            let done_before = passes;
-            let report = |done: usize, total: usize| {
-                let in_pass = done as f64 / total.max(1) as f64;
-                let elapsed = t0.elapsed().as_secs_f64();
-                let (fraction, eta) = match opts.time_limit {
-                    Some(limit) => {
-                        let l = limit.as_secs_f64().max(1e-9);
-                        ((elapsed / l).min(1.0), Some((l - elapsed).max(0.0)))
-                    }
-                    None => {
-                        let f = (done_before as f64 + in_pass) / passes_wanted as f64;
-                        (f, (f > 0.0).then(|| elapsed / f - elapsed))
-                    }
+        let passes = run_passes(
+            &world,
+            integrator.as_mut(),
+            &mut film,
+            r.seed,
+            stop,
+            reporter,
+            |film, integrator, passes| {
+                let Some(every) = opts.checkpoint else {
+                    return Ok(());
                 };
-                reporter.progress(Progress {
-                    fraction,
-                    elapsed,
-                    eta,
-                    passes: done_before,
-                });
-            };
-            integrator::render_pass(
-                &world,
-                integrator.as_ref(),
-                &mut film,
-                r.seed,
-                passes,
-                &report,
-            );
-            passes += 1;
-            last_pass = tp.elapsed();
-            if let Some(every) = opts.checkpoint {
-                if last_checkpoint.elapsed() >= every {
-                    let spp = passes * per_pass;
-                    let attrs = attributes(
-                        desc,
-                        integrator.as_ref(),
-                        passes,
-                        spp,
-                        t0.elapsed().as_secs_f64(),
-                        &opts.attributes,
-                    );
-                    write_outputs(desc, &film, &attrs)?;
-                    reporter.checkpoint(&r.output, passes);
-                    last_checkpoint = Instant::now();
+                if last_checkpoint.elapsed() < every {
+                    return Ok(());
                 }
-            }
-        }
+                let attrs = attributes(
+                    desc,
+                    integrator,
+                    passes,
+                    passes * per_pass,
+                    t0.elapsed().as_secs_f64(),
+                    &opts.attributes,
+                );
+                write_outputs(desc, film, &attrs)?;
+                reporter.checkpoint(&r.output, passes);
+                last_checkpoint = Instant::now();
+                Ok(())
+            },
+        )?;
         let render_seconds = t0.elapsed().as_secs_f64();
         let tw = Instant::now();
         let spp = passes * per_pass;

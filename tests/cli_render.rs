@@ -127,7 +127,10 @@ fn bad_scenes_fail_cleanly_without_output() {
     ]);
     assert_eq!(code, 1);
     assert!(err.contains(bad_out.to_str().unwrap()), "{err}");
-    assert_eq!(common::dir_entries(blocker.path()), vec!["file".to_string()]);
+    assert_eq!(
+        common::dir_entries(blocker.path()),
+        vec!["file".to_string()]
+    );
     // --spp 0 is refused.
     let (code, err) = render(&[
         &format!("{SCENES}/cloud.toml"),

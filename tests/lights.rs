@@ -244,26 +244,31 @@ fn environment_map_sampling_matches_its_pdf() {
 
 #[test]
 fn environment_map_orientation_is_blenders() {
-    // Blender's equirectangular mapping: the centre of the image (u = 0.5)
-    // faces −X, u = 0.75 faces +Y; the top row is +Z.
+    // Blender's equirectangular mapping, as a Cycles 5.0.1 render of a map
+    // whose texels encode their own coordinates shows it: the centre of
+    // the image (u = 0.5) faces +X, u = 0.25 faces +Y; the top row is +Z.
     let (w, h) = (8, 4);
     let mut t = vec![Rgb::ZERO; w * h];
     t[w + 4] = Rgb::splat(1.0); // row 1 (above the horizon), u ∈ [0.5, 0.625)
     t[w * 2 + 6] = Rgb::splat(2.0); // row 2 (below), u ∈ [0.75, 0.875)
     let env = Environment::Map(Box::new(EnvMap::new(w, h, t, 0.0)));
-    let dir = |az: f32, el: f32| Vec3::new(-az.cos() * el.cos(), az.sin() * el.cos(), el.sin());
-    // u = 0.5 + az/(2π): u ∈ [0.5, 0.625) ↔ az ∈ [0, π/4).
-    assert_eq!(env.le(dir(0.3, 0.3)).x, 1.0);
-    assert_eq!(env.le(dir(std::f32::consts::FRAC_PI_2 + 0.3, -0.3)).x, 2.0);
-    assert_eq!(env.le(dir(0.3, -0.3)).x, 0.0);
-    // +Y is at u = 0.75.
+    // az = atan2(y, x), u = 0.5 − az/(2π): u ∈ [0.5, 0.625) ↔ az ∈ (−π/4, 0].
+    let dir = |az: f32, el: f32| Vec3::new(az.cos() * el.cos(), az.sin() * el.cos(), el.sin());
+    assert_eq!(env.le(dir(-0.3, 0.3)).x, 1.0);
+    assert_eq!(
+        env.le(dir(-(std::f32::consts::FRAC_PI_2 + 0.3), -0.3)).x,
+        2.0
+    );
+    assert_eq!(env.le(dir(-0.3, -0.3)).x, 0.0);
+    assert_eq!(env.le(dir(0.3, 0.3)).x, 0.0);
+    // +Y is at u = 0.25 (column 2 from just past it).
     let mut t = vec![Rgb::ZERO; w * h];
     for y in 0..h {
-        t[y * w + 6] = Rgb::ONE;
+        t[y * w + 2] = Rgb::ONE;
     }
     let env = Environment::Map(Box::new(EnvMap::new(w, h, t, 0.0)));
-    assert_eq!(env.le(Vec3::new(0.0, 1.0, 0.1).normalize()).x, 1.0);
-    assert_eq!(env.le(Vec3::new(0.0, -1.0, 0.1).normalize()).x, 0.0);
+    assert_eq!(env.le(dir(std::f32::consts::FRAC_PI_2 - 0.1, 0.1)).x, 1.0);
+    assert_eq!(env.le(dir(-std::f32::consts::FRAC_PI_2, 0.1)).x, 0.0);
 }
 
 #[test]

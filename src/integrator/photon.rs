@@ -108,6 +108,13 @@ const MARCH_RR: f32 = 0.02;
 /// Photons stored per photon emitted, on average, in a pass.
 const STORED_PER_EMITTED: f32 = 1.0;
 
+fn light_samples() -> u32 {
+    std::env::var("VDBPHOTON_LIGHT_SAMPLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(8)
+}
+
 /// A pass's photon map, for the estimate in use.
 enum Map {
     Beam(BeamMap),
@@ -232,7 +239,7 @@ impl PhotonIntegrator {
         let sample: Vec<Photon> = photons.iter().step_by(16).copied().collect();
         let first = median(&density_radii(&sample, k, guess, f32::INFINITY)) / 16f32.cbrt();
         let cell = (first / 1.5).max(1e-6);
-        let r_max = *self.r_max.get_or_insert_with(|| 4.0 * first);
+        let r_max = *self.r_max.get_or_insert(4.0 * first);
         self.totals.r_max = r_max;
         let shrink = ((pass + 1) as f32).powf((self.settings.alpha - 1.0) / 2.0);
         let mut r = density_radii(photons, k, cell, r_max);
@@ -389,39 +396,51 @@ impl PhotonIntegrator {
             f32::INFINITY
         };
         let wo = -d;
-        // Single scattering at one step chosen by T·σs·(1 − e^{−σtΔ})/σt.
+        // Single scattering at LIGHT_SAMPLES steps chosen by
+        // T·σs·(1 − e^{−σtΔ})/σt, stratified over its cumulative sum.
         let total: f32 = steps.iter().map(|s| luminance(s.w * s.sigma_s)).sum();
         if total > 0.0 && (!world.lights.is_empty() || !world.environment.is_black()) {
-            let mut x = rng.next_f32() * total;
-            let mut chosen = steps.len() - 1;
-            for (i, s) in steps.iter().enumerate() {
+            let m = light_samples();
+            let u0 = rng.next_f32();
+            let mut acc = 0.0f32;
+            let mut k = 0u32;
+            for s in steps.iter() {
                 let c = luminance(s.w * s.sigma_s);
-                if x < c {
-                    chosen = i;
-                    break;
+                acc += c;
+                while k < m && (k as f32 + u0) / m as f32 * total < acc {
+                    k += 1;
+                    let prob = c / total;
+                    if prob > 0.0 {
+                        let phase = media.phase_at(s.p, rng.next_f32());
+                        let ls = direct_light(world, media, s.p, wo, &phase, false, rng);
+                        res.direct += s.w * s.sigma_s * ls / (prob * m as f32);
+                    }
                 }
-                x -= c;
-            }
-            let s = steps[chosen];
-            let prob = luminance(s.w * s.sigma_s) / total;
-            if prob > 0.0 {
-                let phase = media.phase_at(s.p, rng.next_f32());
-                let ls = direct_light(world, media, s.p, wo, &phase, false, rng);
-                res.direct = s.w * s.sigma_s * ls / prob;
             }
         }
         // Multiple scattering from the photon map.
         match &self.map {
             Some(Map::Beam(map)) => {
-                let transmittance = |t: f32| {
+                // Transmittance and σs at t, from the march: σs is 0 outside
+                // the steps (where the march skipped empty space).
+                let along = |t: f32| {
                     let i = steps.partition_point(|s| s.t0 <= t);
                     if i == 0 {
-                        return Rgb::ONE;
+                        return (Rgb::ONE, 0.0);
                     }
                     let s = &steps[i - 1];
-                    s.tr * (-s.sigma_t * (t - s.t0).min(s.dt)).map(f32::exp)
+                    let tr = s.tr * (-s.sigma_t * (t - s.t0).min(s.dt)).map(f32::exp);
+                    let inside = t < s.t0 + s.dt;
+                    (
+                        tr,
+                        if inside {
+                            s.sigma_s.element_sum() / 3.0
+                        } else {
+                            0.0
+                        },
+                    )
                 };
-                let (light, emitted) = map.gather(media, o, d, t_end, transmittance);
+                let (light, emitted) = map.gather(media, o, d, t_end, along);
                 res.indirect = light;
                 res.emission += emitted;
             }
@@ -430,8 +449,14 @@ impl PhotonIntegrator {
                     if s.sigma_s.max_element() <= 0.0 {
                         continue;
                     }
-                    let (light, emitted) =
-                        map.estimate(media, s.p, wo, self.settings.k, self.search_radius);
+                    let (light, emitted) = map.estimate(
+                        media,
+                        s.p,
+                        s.sigma_s.element_sum() / 3.0,
+                        wo,
+                        self.settings.k,
+                        self.search_radius,
+                    );
                     res.indirect += s.w * light;
                     res.emission += s.w * emitted;
                 }

@@ -6,7 +6,8 @@
 //! A photon of radius r at perpendicular distance d from the ray and
 //! distance t along it adds K(d)·T(t)·p(wo, wi)·Φ, with K the constant 3-D
 //! kernel 1/(4/3·π·r³) integrated along the chord: K(d) = 3/(2πr²)·√(1 −
-//! d²/r²), which integrates to 1 over the disk. The photons' spheres go
+//! d²/r²), which integrates to 1 over the disk, times σs at the ray's point
+//! over σs at the photon (see `crate::photon`). The photons' spheres go
 //! into a compressed wide BVH (`obvhs`' CWBVH, PLOC-built).
 
 use super::Photon;
@@ -73,15 +74,17 @@ impl BeamMap {
     }
 
     /// The in-scattered light the camera ray `o + t d` (`d` unit) gathers
-    /// over `[0, t_max)`, each photon weighted by `transmittance(t)` to its
-    /// closest point on the ray: (from light photons, from media photons).
+    /// over `[0, t_max)`, each photon weighted by `along(t)` at its closest
+    /// point on the ray: (the transmittance from the camera there, σs there
+    /// as the mean over channels). Returns (from light photons, from media
+    /// photons).
     pub fn gather(
         &self,
         media: &Media,
         o: Vec3,
         d: Vec3,
         t_max: f32,
-        transmittance: impl Fn(f32) -> Rgb,
+        along: impl Fn(f32) -> (Rgb, f32),
     ) -> (Rgb, Rgb) {
         let (mut light, mut emitted) = (Rgb::ZERO, Rgb::ZERO);
         if t_max.is_nan() || t_max <= 0.0 {
@@ -102,8 +105,14 @@ impl BeamMap {
             if d2 >= r2 {
                 return;
             }
+            let (tr, sigma_s) = along(t);
+            if sigma_s <= 0.0 || p.sigma_s <= 0.0 {
+                return;
+            }
             let k = 3.0 / (2.0 * PI * r2) * (1.0 - d2 / r2).max(0.0).sqrt();
-            let c = p.power * (k * media.phase_of(p.volume()).eval(wo, p.wi)) * transmittance(t);
+            let c = p.power
+                * (k * sigma_s / p.sigma_s * media.phase_of(p.volume()).eval(wo, p.wi))
+                * tr;
             if p.from_media() {
                 emitted += c;
             } else {

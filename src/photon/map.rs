@@ -5,7 +5,8 @@
 //! the in-scattered radiance at x towards wo is Σ p(wo, wi)·Φ / (4/3·π·r³)
 //! over the k nearest photons within the pass's radius, r the distance of
 //! the farthest one used (or the search radius when fewer are found).
-//! Photons store power after σs/σt, so this is σs·L_s already.
+//! Photons store power after σs/σt, so this is σs·L_s already (each
+//! photon's power scaled by σs at x over σs where it was stored).
 //!
 //! [`density_radii`] gives each photon the radius of the ball that holds k
 //! photons at the photon density around it, counted in a grid of cells:
@@ -45,10 +46,19 @@ impl PointMap {
         self.photons.is_empty()
     }
 
-    /// In-scattered radiance σs·L_s at `x` towards `wo` (unit, pointing
-    /// away from x), from at most `k` photons within `radius`: the parts
-    /// from light photons and from photons the media emitted.
-    pub fn estimate(&self, media: &Media, x: Vec3, wo: Vec3, k: u32, radius: f32) -> (Rgb, Rgb) {
+    /// In-scattered radiance σs·L_s at `x` (where the mean of σs over
+    /// channels is `sigma_s`) towards `wo` (unit, pointing away from x),
+    /// from at most `k` photons within `radius`: the parts from light
+    /// photons and from photons the media emitted.
+    pub fn estimate(
+        &self,
+        media: &Media,
+        x: Vec3,
+        sigma_s: f32,
+        wo: Vec3,
+        k: u32,
+        radius: f32,
+    ) -> (Rgb, Rgb) {
         let k = NonZero::new(k.max(1) as usize).unwrap_or(NonZero::<usize>::MIN);
         let found = self
             .tree
@@ -70,7 +80,11 @@ impl PointMap {
         let (mut light, mut emitted) = (Rgb::ZERO, Rgb::ZERO);
         for f in &found {
             let p = &self.photons[f.item as usize];
-            let contribution = p.power * media.phase_of(p.volume()).eval(wo, p.wi);
+            if p.sigma_s <= 0.0 {
+                continue;
+            }
+            let contribution =
+                p.power * (sigma_s / p.sigma_s * media.phase_of(p.volume()).eval(wo, p.wi));
             if p.from_media() {
                 emitted += contribution;
             } else {

@@ -23,6 +23,12 @@
 //! scattered emission). Up to `max_bounces` scattering events count, as
 //! for paths.
 //!
+//! Each photon also keeps σs where it was stored. An estimate gathering it
+//! at x multiplies by σs(x)/σs(photon): the ratio tends to 1 as radii
+//! shrink, and it keeps a kernel that reaches past a volume's edge from
+//! lighting the empty space beside it (rays that miss a cloud would
+//! otherwise gather its photons unattenuated, a bright halo).
+//!
 //! A photon is stored with probability `store` (and its power divided by
 //! it): in dense media a photon scatters hundreds of times, and thinning
 //! the stored collisions keeps a pass's map to a chosen size without bias.
@@ -52,6 +58,10 @@ pub struct Photon {
     pub wi: Vec3,
     /// Power (W) after the collision's weight, over the photons emitted.
     pub power: Rgb,
+    /// σs where it was stored (mean over channels): estimates weight a
+    /// photon by σs where they gather it over this, so that the kernel
+    /// blurs the light, not the medium's edges.
+    pub sigma_s: f32,
     /// The volume whose phase function scatters it (bits 0-30) and whether
     /// it was emitted by the media (bit 31).
     tag: u32,
@@ -165,10 +175,12 @@ fn trace_one(
             if collisions >= 2 || e.from_media {
                 eligible += 1;
                 if store >= 1.0 || rng.next_f32() < store {
+                    let sigma_s = step.medium.unwrap_or_else(|| media.eval(c.p)).sigma_s;
                     out.push(Photon {
                         p: c.p,
                         wi: -d,
                         power: power / store,
+                        sigma_s: sigma_s.element_sum() / 3.0,
                         tag: step.volume as u32 | media_bit,
                     });
                 }
