@@ -34,7 +34,18 @@ fn photons(world: &World, e: &Emitters, n: u32, store: f32, want: usize) -> Vec<
     let mut all = Vec::new();
     let mut pass = 0;
     while all.len() < want {
-        let (p, _) = photon::trace(world, e, n, 7, pass, 1024, store);
+        let (p, _) = photon::trace(
+            world,
+            e,
+            n,
+            7,
+            pass,
+            1024,
+            photon::Store {
+                scale: store,
+                importance: None,
+            },
+        );
         all.extend(p);
         pass += 1;
     }
@@ -65,7 +76,15 @@ fn main() {
         let e = Emitters::new(&world).unwrap();
         println!("\n== {name} (max_bounces {})", desc.render.max_bounces);
         let t = Instant::now();
-        let (p, st) = photon::trace(&world, &e, n, 1, 0, desc.render.max_bounces, 1.0);
+        let (p, st) = photon::trace(
+            &world,
+            &e,
+            n,
+            1,
+            0,
+            desc.render.max_bounces,
+            photon::Store::ALL,
+        );
         let dt = secs(t);
         println!(
             "tracing: {n} photons in {dt:.2} s = {:.2} M photons/s; {:.1} eligible collisions per photon, {} stored",

@@ -44,6 +44,12 @@ impl Camera {
         self.position
     }
 
+    /// The angle one pixel subtends at the image centre, radians (small
+    /// angles: 2·tan(vfov/2) / height).
+    pub fn pixel_angle(&self) -> f32 {
+        2.0 * self.tan_half / self.height as f32
+    }
+
     /// Image width in pixels.
     pub fn width(&self) -> u32 {
         self.width

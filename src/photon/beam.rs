@@ -22,6 +22,14 @@ use obvhs::BvhBuildParams;
 use std::f32::consts::PI;
 use std::time::Duration;
 
+/// The largest σs ratio (where gathered over where stored) a photon is
+/// weighted by: a photon kept in a cloud's thin fringe and gathered where
+/// it is dense would otherwise be a firefly (measured on the dense
+/// reference cloud: 14 passes, relMSE 6.1e-3 uncapped, 3.9e-3 and 4.1e-3 capped at 4
+/// or 16; capped at 1, the image is 3.5 % too dark). Ratios tend to 1 as
+/// radii shrink, so the cap does not stop convergence.
+pub const RATIO_MAX: f32 = 16.0;
+
 /// A pass's photons with their radii, in BVH order.
 pub struct BeamMap {
     photons: Vec<Photon>,
@@ -111,7 +119,8 @@ impl BeamMap {
             }
             let k = 3.0 / (2.0 * PI * r2) * (1.0 - d2 / r2).max(0.0).sqrt();
             let c = p.power
-                * (k * sigma_s / p.sigma_s * media.phase_of(p.volume()).eval(wo, p.wi))
+                * (k * (sigma_s / p.sigma_s).min(RATIO_MAX)
+                    * media.phase_of(p.volume()).eval(wo, p.wi))
                 * tr;
             if p.from_media() {
                 emitted += c;

@@ -29,9 +29,12 @@
 //! lighting the empty space beside it (rays that miss a cloud would
 //! otherwise gather its photons unattenuated, a bright halo).
 //!
-//! A photon is stored with probability `store` (and its power divided by
-//! it): in dense media a photon scatters hundreds of times, and thinning
-//! the stored collisions keeps a pass's map to a chosen size without bias.
+//! A collision is stored with a probability (and its power divided by it):
+//! in dense media a photon scatters hundreds of times, and thinning the
+//! stored collisions keeps a pass's map to a chosen size without bias. The
+//! probability is a scale times the camera's importance at the collision
+//! ([`importance::Importance`]), so the map is spent where camera rays
+//! gather.
 //!
 //! Photon `i` of pass `p` draws its numbers from the stream (seed, p, i) in
 //! the photon domain, and photons are traced in chunks collected in index
@@ -39,6 +42,7 @@
 
 pub mod beam;
 pub mod emitter;
+pub mod importance;
 pub mod map;
 
 use crate::sampling::{roulette, Domain, Rng};
@@ -87,15 +91,39 @@ pub struct TraceStats {
     pub emitted: u64,
     /// Collisions at which a photon could have been stored.
     pub eligible: u64,
+    /// The sum of the importance at those collisions: the photons a scale
+    /// of 1 would store (before capping each probability at 1).
+    pub eligible_weight: f64,
     /// Photons stored.
     pub stored: u64,
+}
+
+/// How collisions are kept: with probability `scale` times the importance
+/// there (1 without an importance grid), at most 1.
+#[derive(Debug, Clone, Copy)]
+pub struct Store<'a> {
+    pub scale: f32,
+    pub importance: Option<&'a importance::Importance>,
+}
+
+impl Store<'_> {
+    /// Keep every collision.
+    pub const ALL: Store<'static> = Store {
+        scale: 1.0,
+        importance: None,
+    };
+
+    #[inline]
+    fn weight(&self, p: Vec3) -> f32 {
+        self.importance.map_or(1.0, |i| i.at(p))
+    }
 }
 
 /// Photons emitted per chunk of work (the unit of parallelism).
 const CHUNK: u32 = 1024;
 
-/// Traces `n` photons of pass `pass`, storing each eligible collision with
-/// probability `store` (in (0, 1]).
+/// Traces `n` photons of pass `pass`, keeping eligible collisions as
+/// `store` says.
 pub fn trace(
     world: &World,
     emitters: &Emitters,
@@ -103,25 +131,28 @@ pub fn trace(
     seed: u64,
     pass: u32,
     max_bounces: u32,
-    store: f32,
+    store: Store,
 ) -> (Vec<Photon>, TraceStats) {
     let chunks = n.div_ceil(CHUNK);
-    let parts: Vec<(Vec<Photon>, u64)> = (0..chunks)
+    let parts: Vec<(Vec<Photon>, u64, f64)> = (0..chunks)
         .into_par_iter()
         .map(|c| {
             let mut out = Vec::new();
-            let mut eligible = 0u64;
+            let (mut eligible, mut weight) = (0u64, 0.0f64);
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let mut rng = Rng::new(Domain::Photon, seed, pass as u64, i as u64);
-                eligible += trace_one(world, emitters, n, max_bounces, store, &mut rng, &mut out);
+                let (e, w) = trace_one(world, emitters, n, max_bounces, store, &mut rng, &mut out);
+                eligible += e;
+                weight += w;
             }
-            (out, eligible)
+            (out, eligible, weight)
         })
         .collect();
     let stored = parts.iter().map(|p| p.0.len() as u64).sum();
     let eligible = parts.iter().map(|p| p.1).sum();
+    let eligible_weight = parts.iter().map(|p| p.2).sum();
     let mut photons = Vec::with_capacity(stored as usize);
-    for (p, _) in parts {
+    for (p, _, _) in parts {
         photons.extend(p);
     }
     (
@@ -129,35 +160,38 @@ pub fn trace(
         TraceStats {
             emitted: n as u64,
             eligible,
+            eligible_weight,
             stored,
         },
     )
 }
 
-/// One photon's flight; returns the number of eligible collisions.
+/// One photon's flight; returns the number of eligible collisions and the
+/// sum of their importance.
 fn trace_one(
     world: &World,
     emitters: &Emitters,
     n: u32,
     max_bounces: u32,
-    store: f32,
+    store: Store,
     rng: &mut Rng,
     out: &mut Vec<Photon>,
-) -> u64 {
+) -> (u64, f64) {
     let Some(e) = emitters.sample(world, rng) else {
-        return 0;
+        return (0, 0.0);
     };
     let media = &world.media;
     let mut power = e.ray.power / n as f32;
     // Russian roulette keeps the power near what the photon started with.
     let threshold = power.max_element();
     if threshold.is_nan() || threshold <= 0.0 {
-        return 0;
+        return (0, 0.0);
     }
     let media_bit = if e.from_media { FROM_MEDIA } else { 0 };
     let (mut o, mut d) = (e.ray.o, e.ray.d);
     let mut collisions = 0u32;
     let mut eligible = 0u64;
+    let mut weight = 0.0f64;
     loop {
         let mut next: Option<(Vec3, Vec3)> = None;
         sample_t_maj(media, o, d, f32::INFINITY, rng, |c, rng| {
@@ -174,12 +208,15 @@ fn trace_one(
             }
             if collisions >= 2 || e.from_media {
                 eligible += 1;
-                if store >= 1.0 || rng.next_f32() < store {
+                let w = store.weight(c.p);
+                weight += w as f64;
+                let q = (store.scale * w).min(1.0);
+                if q > 0.0 && (q >= 1.0 || rng.next_f32() < q) {
                     let sigma_s = step.medium.unwrap_or_else(|| media.eval(c.p)).sigma_s;
                     out.push(Photon {
                         p: c.p,
                         wi: -d,
-                        power: power / store,
+                        power: power / q,
                         sigma_s: sigma_s.element_sum() / 3.0,
                         tag: step.volume as u32 | media_bit,
                     });
@@ -198,7 +235,7 @@ fn trace_one(
                 o = p;
                 d = nd;
             }
-            _ => return eligible,
+            _ => return (eligible, weight),
         }
     }
 }
