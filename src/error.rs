@@ -33,6 +33,22 @@ pub enum Error {
     /// Data built in memory that does not make a valid grid.
     #[error("invalid grid: {0}")]
     InvalidGrid(String),
+    /// The work was stopped by a signal (SIGINT, SIGTERM) before it
+    /// finished; nothing was written (an earlier checkpoint stays).
+    #[error("interrupted by {}: nothing written", crate::interrupt::signal_name(*signal))]
+    Interrupted { signal: i32 },
+}
+
+impl Error {
+    /// The process exit code for this error: 128 + the signal for an
+    /// interruption (130 for SIGINT, 143 for SIGTERM, as shells report
+    /// them), 1 otherwise.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Error::Interrupted { signal } => (128 + *signal).clamp(0, 255) as u8,
+            _ => 1,
+        }
+    }
 }
 
 impl Error {

@@ -11,6 +11,7 @@ pub mod generate;
 pub mod grid;
 pub mod image;
 pub mod integrator;
+pub mod interrupt;
 pub mod light;
 pub mod medium;
 pub mod phase;

@@ -119,6 +119,11 @@ struct RenderArgs {
     /// Rewrite the outputs this often during the render (e.g. 60s).
     #[arg(long, value_parser = parse_duration)]
     checkpoint: Option<std::time::Duration>,
+    /// Memory the render may use (e.g. 8G, 512M; default: what the machine
+    /// has available). A render that needs more is refused before it
+    /// starts.
+    #[arg(long, value_parser = parse_bytes)]
+    max_memory: Option<u64>,
     /// No progress output (the summary line is still printed).
     #[arg(short, long)]
     quiet: bool,
@@ -139,6 +144,34 @@ impl From<IntegratorArg> for vdbphoton::scene::Integrator {
             IntegratorArg::Auto => Self::Auto,
         }
     }
+}
+
+fn parse_bytes(s: &str) -> std::result::Result<u64, String> {
+    let t = s.trim();
+    let (num, scale) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => {
+            let scale: u64 = match c.to_ascii_uppercase() {
+                'K' => 1 << 10,
+                'M' => 1 << 20,
+                'G' => 1 << 30,
+                'T' => 1 << 40,
+                _ => {
+                    return Err(format!(
+                        "'{s}' is not an amount of memory: use a number of bytes or K, M, G, T (e.g. 8G)"
+                    ))
+                }
+            };
+            (&t[..i], scale)
+        }
+        _ => (t, 1),
+    };
+    let v: f64 = num
+        .parse()
+        .map_err(|_| format!("'{s}' is not an amount of memory (e.g. 8G, 512M)"))?;
+    if !(v.is_finite() && v > 0.0) {
+        return Err(format!("'{s}': the memory must be more than 0"));
+    }
+    Ok((v * scale as f64) as u64)
 }
 
 fn parse_duration(s: &str) -> std::result::Result<std::time::Duration, String> {
@@ -446,6 +479,7 @@ fn render(a: RenderArgs) -> Result<()> {
         threads: a.threads,
         time_limit: a.time,
         checkpoint: a.checkpoint,
+        max_memory: a.max_memory,
         attributes: vec![("vdbphoton/scene".to_string(), a.scene.display().to_string())],
     };
     let s = render_scene(&desc, &opts, &reporter)?;
@@ -585,11 +619,12 @@ fn run(cli: Cli) -> Result<()> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    vdbphoton::interrupt::install();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("vdbphoton: error: {}", one_line(&e));
-            ExitCode::FAILURE
+            ExitCode::from(e.exit_code())
         }
     }
 }

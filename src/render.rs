@@ -54,6 +54,66 @@ pub struct RenderOptions {
     pub checkpoint: Option<Duration>,
     /// More header attributes (e.g. the scene file's name).
     pub attributes: Vec<(String, String)>,
+    /// Memory the render may use, bytes (`None`: what the machine has
+    /// available). A render that would need more is refused before it
+    /// starts.
+    pub max_memory: Option<u64>,
+}
+
+/// Bytes of memory the machine has available now (Linux's MemAvailable),
+/// when it can be read.
+pub fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Bytes a stored photon takes at the peak of a pass (the photon, its
+/// radius, its box while the BVH is built, the BVH and the reordered copy;
+/// `cargo bench --bench photon` measured 128 bytes after the build).
+const PHOTON_PEAK_BYTES: u64 = 220;
+
+/// Bytes per pixel beside the film: the image assembled for writing and
+/// the encoder's copy (RGBA and, with AOVs, ten channels more, f32).
+fn image_bytes_per_pixel(aovs: bool) -> u64 {
+    2 * 4 * if aovs { 14 } else { 4 }
+}
+
+fn gib(b: u64) -> String {
+    format!("{:.1} GiB", b as f64 / (1u64 << 30) as f64)
+}
+
+/// Refuses a render that will not fit in `limit` bytes: film and images,
+/// the photon map of a pass, and the grids (when loaded).
+fn check_memory(desc: &SceneDesc, grids: u64, photon: bool, limit: Option<u64>) -> Result<()> {
+    let Some(limit) = limit.or_else(available_memory) else {
+        return Ok(());
+    };
+    let r = &desc.render;
+    let pixels = r.width as u64 * r.height as u64;
+    let film =
+        Film::bytes_for(pixels as usize, r.aovs) as u64 + pixels * image_bytes_per_pixel(r.aovs);
+    let photons = if photon {
+        r.photon.photons as u64 * PHOTON_PEAK_BYTES
+    } else {
+        0
+    };
+    let need = film + photons + grids;
+    if need > limit {
+        return Err(Error::Argument(format!(
+            "the render needs about {} (film and images {} for {} x {}, photon map {}, grids {}) but {} {}; lower the image size or `photons`, or give --max-memory",
+            gib(need),
+            gib(film),
+            r.width,
+            r.height,
+            gib(photons),
+            gib(grids),
+            gib(limit),
+            if limit == available_memory().unwrap_or(0) { "is available" } else { "is the limit" }
+        )));
+    }
+    Ok(())
 }
 
 /// Where a render is.
@@ -290,6 +350,7 @@ pub fn run_passes(
         if done {
             return Ok(passes);
         }
+        crate::interrupt::check()?;
         let tp = Instant::now();
         integrator.begin_pass(world, passes);
         let done_before = passes;
@@ -314,6 +375,9 @@ pub fn run_passes(
             });
         };
         integrator::render_pass(world, integrator, film, seed, passes, &report);
+        // An interrupted pass is incomplete: stop before anything is
+        // written from it.
+        crate::interrupt::check()?;
         passes += 1;
         last_pass = tp.elapsed();
         after_pass(film, integrator, passes)?;
@@ -331,8 +395,17 @@ pub fn render_scene(
     if opts.threads == Some(0) {
         return Err(Error::Argument("--threads must be at least 1".into()));
     }
+    let wants_photons = r.integrator != IntegratorChoice::Path;
+    check_memory(desc, 0, wants_photons, opts.max_memory)?;
     let run = || -> Result<Summary> {
         let world = World::load(desc)?;
+        let grids: u64 = world
+            .media
+            .volumes()
+            .iter()
+            .map(|v| v.memory_bytes() as u64)
+            .sum();
+        check_memory(desc, grids, wants_photons, opts.max_memory)?;
         for w in &world.warnings {
             reporter.warning(w);
         }

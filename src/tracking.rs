@@ -57,12 +57,19 @@ impl Collision<'_> {
     }
 }
 
+/// Tentative collisions one flight may take: a safety net that bounds the
+/// cost of a sample whatever the coefficients (the scene loader refuses
+/// extinction beyond `world::MAX_VOXEL_OPTICAL_DEPTH`, within which a
+/// flight meets about a thousand per voxel at worst). A flight that uses
+/// them up ends as if absorbed.
+pub const MAX_TENTATIVE: u32 = 1 << 20;
+
 /// Samples tentative collisions along `o + t d` (`d` unit) in `[0, t_max)`
 /// and calls `f` at each; `f` returns false to stop. The rate is the
 /// majorant of σt, and at least the media's emission rate where the
 /// majorant grid says something may emit, so that emission is met also
 /// where σt = 0. Returns true when the ray reached `t_max` (or left every
-/// volume) without `f` stopping it.
+/// volume) without `f` stopping it (nor [`MAX_TENTATIVE`]).
 #[inline]
 pub fn sample_t_maj(
     media: &Media,
@@ -73,6 +80,7 @@ pub fn sample_t_maj(
     mut f: impl FnMut(&Collision, &mut Rng) -> bool,
 ) -> bool {
     let mut reached_end = true;
+    let mut budget = MAX_TENTATIVE;
     let control = media.control_albedo().is_some();
     let emission_rate = media.emission_rate();
     media.for_each_segment(o, d, 0.0, t_max, |seg| {
@@ -95,6 +103,11 @@ pub fn sample_t_maj(
             t -= (1.0 - rng.next_f32()).ln() / rate;
             if t >= seg.t1 {
                 return true;
+            }
+            budget -= 1;
+            if budget == 0 {
+                reached_end = false;
+                return false;
             }
             count_tentative();
             let c = Collision {
@@ -223,6 +236,7 @@ pub const TRANSMITTANCE_RR: f32 = 0.1;
 /// estimate falls below 0.1.
 pub fn transmittance(media: &Media, o: Vec3, d: Vec3, t_max: f32, rng: &mut Rng) -> Rgb {
     let mut tr = Rgb::ONE;
+    let mut budget = MAX_TENTATIVE;
     // Russian roulette on a small estimate; false when it ends at zero.
     let play = |tr: &mut Rgb, rng: &mut Rng| roulette(tr, TRANSMITTANCE_RR, rng);
     media.for_each_segment(o, d, 0.0, t_max, |seg| {
@@ -244,6 +258,12 @@ pub fn transmittance(media: &Media, o: Vec3, d: Vec3, t_max: f32, rng: &mut Rng)
             t -= (1.0 - rng.next_f32()).ln() / rate;
             if t >= seg.t1 {
                 return true;
+            }
+            // Out of tentative collisions (see MAX_TENTATIVE): opaque.
+            budget -= 1;
+            if budget == 0 {
+                tr = Rgb::ZERO;
+                return false;
             }
             count_tentative();
             let m = media.eval(o + d * t);

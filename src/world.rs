@@ -66,6 +66,9 @@ fn load_volume(v: &VolumeDesc, warnings: &mut Vec<String>) -> Result<Option<Volu
     let material = Material::from_desc(&v.material);
     let label = v.file.display().to_string();
     let vol = Volume::new(&label, density, extra, material, v.transform);
+    if let Some(vol) = &vol {
+        check_optical_depth(v, vol)?;
+    }
     if vol.is_none() {
         warnings.push(format!(
             "'{}', grid '{}': the grid is empty and nothing else in the volume emits; the volume is skipped",
@@ -74,6 +77,33 @@ fn load_volume(v: &VolumeDesc, warnings: &mut Vec<String>) -> Result<Option<Volu
         ));
     }
     Ok(vol)
+}
+
+/// The largest optical depth a single voxel may have. Light does not cross
+/// even one voxel long before this (its transmittance is e^-1000), and
+/// beyond it the trackers' cost, which grows with the majorant over the
+/// stretches where the density falls away, is no longer bounded by anything
+/// a render can afford: σ = 10^12 made a 16 x 12 render run for minutes,
+/// and on the reference cloud at 4·10^5 per unit (10^4 per voxel) the
+/// photons of one pass took 84 s, at 4·10^4 (830 per voxel) 9 s.
+pub const MAX_VOXEL_OPTICAL_DEPTH: f32 = 1e3;
+
+/// Refuses extinction so high that a single voxel is opaque beyond any
+/// meaning (see [`MAX_VOXEL_OPTICAL_DEPTH`]).
+fn check_optical_depth(v: &VolumeDesc, vol: &Volume) -> Result<()> {
+    let dmax = vol.density().value_range().map_or(0.0, |r| r[1].max(0.0));
+    let sigma = vol.sigma_t_per_density() * dmax;
+    let depth = sigma * vol.voxel_length();
+    if !depth.is_finite() || depth > MAX_VOXEL_OPTICAL_DEPTH {
+        return Err(Error::grid(
+            &v.file,
+            &v.density_grid,
+            format!(
+                "the material makes the extinction reach {sigma:e} per unit length, an optical depth of {depth:e} across one voxel (at most {MAX_VOXEL_OPTICAL_DEPTH:e}: light could not cross a voxel); lower the material's density or sigma_a/sigma_s"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 impl World {

@@ -171,6 +171,10 @@ pub fn render_pass(
     // number of threads.
     let film = Mutex::new(film);
     tiles.into_par_iter().for_each(|t| {
+        // A signal asked to stop: leave the rest (the caller sees it).
+        if crate::interrupt::requested().is_some() {
+            return;
+        }
         let mut out = Vec::with_capacity(t.pixels() * spp as usize);
         for y in t.y0..t.y1 {
             for x in t.x0..t.x1 {

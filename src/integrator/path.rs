@@ -173,7 +173,7 @@ pub fn trace(world: &World, max_bounces: u32, o: Vec3, d: Vec3, rng: &mut Rng) -
         let mut new_dir = ray_d;
         let mut new_o = ray_o;
         let mut new_pdf = 0.0;
-        sample_t_maj(media, ray_o, ray_d, f32::INFINITY, rng, |c, rng| {
+        let left = sample_t_maj(media, ray_o, ray_d, f32::INFINITY, rng, |c, rng| {
             let Some(step) = tracking::collide(c, beta, rng) else {
                 terminated = true;
                 return false;
@@ -215,7 +215,9 @@ pub fn trace(world: &World, max_bounces: u32, o: Vec3, d: Vec3, rng: &mut Rng) -
             }
             false
         });
-        if terminated {
+        // A flight that neither scattered nor left the volumes used up its
+        // tentative collisions (tracking::MAX_TENTATIVE): it ends.
+        if terminated || (!scattered && !left) {
             break;
         }
         if !scattered {

@@ -103,6 +103,14 @@ impl Default for PhotonSettings {
 /// Largest optical depth of the majorant over one march step.
 const MAX_STEP_TAU: f32 = 0.5;
 
+/// Steps per voxel at most, whatever the majorant: where the majorant is
+/// huge but the density falls away (a cloud's fringe), half an optical
+/// depth of the majorant per step would cost millions of steps in space
+/// the light crosses freely; with σ = 4·10^5 per unit on the reference
+/// cloud a 16 x 12 pass took 84 s. Steps this short are exact enough
+/// wherever the light gets through.
+const MAX_STEPS_PER_VOXEL: f32 = 16.0;
+
 /// The march plays Russian roulette once the transmittance is below this.
 const MARCH_RR: f32 = 0.02;
 
@@ -166,6 +174,8 @@ pub struct PhotonIntegrator {
     seed: u64,
     emitters: Option<Emitters>,
     step: f32,
+    /// The shortest step (the finest voxel over MAX_STEPS_PER_VOXEL).
+    min_step: f32,
     /// The first pass's largest radius (automatic or `radius`).
     r_max: Option<f32>,
     /// Scale of the probability of storing a collision in the next pass.
@@ -199,6 +209,7 @@ impl PhotonIntegrator {
             max_bounces,
             seed,
             emitters: Emitters::new(world),
+            min_step: (if finest.is_finite() { finest } else { 1.0 }) / MAX_STEPS_PER_VOXEL,
             importance: Importance::from_camera(world, step),
             step,
             r_max: settings.radius,
@@ -366,7 +377,9 @@ impl PhotonIntegrator {
             let len = seg.t1 - seg.t0;
             let mut target = self.step;
             if seg.max_density > 0.0 {
-                target = target.min(MAX_STEP_TAU / seg.max_density);
+                target = target
+                    .min(MAX_STEP_TAU / seg.max_density)
+                    .max(self.min_step);
             }
             let n = (len / target).ceil().clamp(1.0, 1e6) as u32;
             let dt = len / n as f32;

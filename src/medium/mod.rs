@@ -332,6 +332,14 @@ impl Volume {
             self.majorant = m;
         }
     }
+    /// Bytes the volume's grids take.
+    pub fn memory_bytes(&self) -> usize {
+        self.density.memory_bytes()
+            + self.temperature.as_ref().map_or(0, |g| g.memory_bytes())
+            + self.flame.as_ref().map_or(0, |g| g.memory_bytes())
+            + self.color.as_ref().map_or(0, |g| g.memory_bytes())
+            + self.blackbody.as_ref().map_or(0, |g| g.memory_bytes())
+    }
     pub fn density(&self) -> &Grid<f32> {
         &self.density
     }

@@ -79,7 +79,7 @@ impl Importance {
                             }
                             let mut target = step;
                             if seg.max_density > 0.0 {
-                                target = target.min(0.5 / seg.max_density);
+                                target = target.min(0.5 / seg.max_density).max(finest / 16.0);
                             }
                             let k = ((seg.t1 - seg.t0) / target).ceil().clamp(1.0, 1e6) as u32;
                             let dt = (seg.t1 - seg.t0) / k as f32;

@@ -139,6 +139,9 @@ pub fn trace(
         .map(|c| {
             let mut out = Vec::new();
             let (mut eligible, mut weight) = (0u64, 0.0f64);
+            if crate::interrupt::requested().is_some() {
+                return (out, 0, 0.0);
+            }
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let mut rng = Rng::new(Domain::Photon, seed, pass as u64, i as u64);
                 let (e, w) = trace_one(world, emitters, n, max_bounces, store, &mut rng, &mut out);
