@@ -94,7 +94,7 @@ fn interrupt(signal: &str, checkpoint: Option<&str>, wait: Duration) -> (i32, te
         args.push("--checkpoint".into());
         args.push(c.into());
     }
-    let mut child = Command::new(BIN)
+    let child = Command::new(BIN)
         .args(&args)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
