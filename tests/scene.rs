@@ -105,7 +105,7 @@ fn defaults_when_keys_are_absent() {
             max_bounces: 256,
             integrator: Integrator::Auto,
             photon: PhotonSettings {
-                photons: 200_000,
+                photons: 100_000,
                 k: 32,
                 radius: None,
                 alpha: 2.0 / 3.0,

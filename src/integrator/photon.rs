@@ -90,7 +90,7 @@ pub struct PhotonSettings {
 impl Default for PhotonSettings {
     fn default() -> Self {
         Self {
-            photons: 200_000,
+            photons: 100_000,
             k: 32,
             radius: None,
             alpha: 2.0 / 3.0,

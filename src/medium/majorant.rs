@@ -268,7 +268,9 @@ impl MajorantGrid {
         }
         let cs = self.cell as f32;
         let p = (o + d * t_enter - self.origin) / cs;
-        let cell = p.floor().as_ivec3().clamp(IVec3::ZERO, self.res - 1);
+        // p is inside the clipped box, so above −1: truncating p + 1 is the
+        // floor, without libm's floorf (a call per axis, per flight).
+        let cell = ((p + Vec3::ONE).as_ivec3() - IVec3::ONE).clamp(IVec3::ZERO, self.res - 1);
         let mut step = IVec3::ZERO;
         let mut next_t = Vec3::splat(f32::INFINITY);
         let mut delta_t = Vec3::splat(f32::INFINITY);
