@@ -535,6 +535,42 @@ void write_test_fixture(rust::Str path, rust::Str kind) {
         const openvdb::BBoxd box(openvdb::Vec3d(0, 0, 0), openvdb::Vec3d(16, 16, 16));
         g->setTransform(openvdb::math::Transform::createFrustumTransform(box, 0.5, 2.0, 0.1));
         grids.push_back(g);
+    } else if (k == "half" || k == "zip" || k == "uncompressed" || k == "inactive" || k == "instance") {
+        // Storage variants of one small float grid, for the reader's walk
+        // and the fuzzer's seeds: half floats, zlib, no compression at all,
+        // leaves whose inactive values need each mask-compression case, and
+        // a second grid sharing the first one's tree.
+        auto g = openvdb::FloatGrid::create(0.0f);
+        g->setName("density");
+        g->setGridClass(openvdb::GRID_FOG_VOLUME);
+        for (int i = 0; i < 40; ++i) g->tree().setValue(Coord(i, (7 * i) % 23, (3 * i) % 17), 0.05f + 0.02f * i);
+        g->tree().addTile(1, Coord(64, 0, 0), 0.5f, true);
+        g->tree().addTile(2, Coord(256, 0, 0), 0.25f, true);
+        if (k == "inactive") {
+            // One other inactive value (metadata 2), background plus one
+            // (4), two non-background values (5), more than two (6).
+            g->tree().setValueOff(Coord(1, 1, 1), 0.75f);
+            g->tree().setValueOn(Coord(17, 1, 1), 0.5f);
+            g->tree().setValueOff(Coord(18, 1, 1), 0.125f);
+            g->tree().setValueOn(Coord(33, 1, 1), 0.5f);
+            for (int z = 0; z < 8; ++z) g->tree().setValueOff(Coord(33, 2, z), z % 2 ? 0.3f : 0.6f);
+            g->tree().setValueOn(Coord(49, 1, 1), 0.5f);
+            for (int z = 0; z < 8; ++z) g->tree().setValueOff(Coord(49, 2, z), 0.1f * z);
+        }
+        if (k == "half") g->setSaveFloatAsHalf(true);
+        grids.push_back(g);
+        if (k == "instance") {
+            auto inst = g->copyGrid(); // shares the tree: written as an instance
+            inst->setName("density_copy");
+            inst->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
+            grids.push_back(inst);
+        }
+        openvdb::io::File file(to_std(path));
+        if (k == "zip") file.setCompression(openvdb::io::COMPRESS_ZIP | openvdb::io::COMPRESS_ACTIVE_MASK);
+        if (k == "uncompressed") file.setCompression(openvdb::io::COMPRESS_NONE);
+        file.write(grids);
+        file.close();
+        return;
     } else {
         throw std::runtime_error("unknown fixture kind '" + k + "'");
     }

@@ -581,7 +581,10 @@ pub mod reference {
     /// Writes a file our writer cannot make, for the reader's tests: an
     /// `int32` grid ("int32") or a frustum transform ("frustum"), which the
     /// reader must refuse, or a `double` grid ("double"), which it reads as
-    /// f32.
+    /// f32; a small float grid stored as half floats ("half"), with zlib
+    /// ("zip"), without compression ("uncompressed"), with inactive values
+    /// that need every mask-compression case ("inactive"), or with a second
+    /// grid that is an instance of it ("instance").
     pub fn write_unsupported_fixture(path: &Path, kind: &str) -> Result<()> {
         bridge::write_test_fixture(path_str(path)?, kind)
             .map_err(|e| Error::file(path, e.what().to_string()))
