@@ -3,7 +3,10 @@
 #include "vdbphoton/src/vdb/ffi.rs.h"
 
 #include <openvdb/openvdb.h>
+#include <openvdb/io/Archive.h>
+#include <openvdb/io/DelayedLoadMetadata.h>
 #include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/math/Maps.h>
 
@@ -12,6 +15,7 @@
 
 #include <chrono>
 #include <cstring>
+#include <istream>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -27,10 +31,79 @@ namespace {
 using openvdb::Coord;
 using openvdb::Index64;
 
+// OpenVDB's registries, once. `__delayedload` metadata is unregistered:
+// its reader (`io::DelayedLoadMetadata::readValue`) sizes vectors from
+// counts in the file and decompresses Blosc data on the strength of its
+// header alone, and it serves only delayed loading, which vdbphoton never
+// uses. Unregistered, it is read as the raw bytes its stored size names
+// (and dropped, as a "__" type), which `vdb::check` has bounded. Writing
+// is unaffected (the writer builds that metadata itself).
 void ensure_initialized() {
     static std::once_flag flag;
-    std::call_once(flag, [] { openvdb::initialize(); });
+    std::call_once(flag, [] {
+        openvdb::initialize();
+        openvdb::io::DelayedLoadMetadata::unregisterType();
+    });
 }
+
+// A read-only stream over bytes already in memory (and already checked by
+// `vdb::check`): OpenVDB parses exactly the bytes Rust walked, never the
+// file itself, which might have changed since.
+class MemoryBuf : public std::streambuf {
+public:
+    MemoryBuf(const uint8_t* data, size_t size) {
+        char* p = const_cast<char*>(reinterpret_cast<const char*>(data));
+        setg(p, p, p + size);
+    }
+
+protected:
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode which) override {
+        if (!(which & std::ios_base::in)) return pos_type(off_type(-1));
+        const off_type size = egptr() - eback();
+        off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : size;
+        off_type to = 0;
+        if (__builtin_add_overflow(base, off, &to) || to < 0 || to > size) return pos_type(off_type(-1));
+        setg(eback(), eback() + to, egptr());
+        return pos_type(to);
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override {
+        return seekoff(off_type(pos), std::ios_base::beg, which);
+    }
+};
+
+// Tags a stream as io::File::open does (seekable, so leaves use the value
+// mask read with the topology), with the file's format and library version.
+struct TaggedStream {
+    MemoryBuf buf;
+    std::istream is;
+    openvdb::io::StreamMetadata::Ptr meta;
+    TaggedStream(rust::Slice<const uint8_t> bytes, const StreamVersion& v)
+        : buf(bytes.data(), bytes.size()), is(&buf), meta(new openvdb::io::StreamMetadata) {
+        ensure_initialized();
+        meta->setSeekable(true);
+        openvdb::io::setStreamMetadataPtr(is, meta, /*transfer=*/false);
+        openvdb::io::setVersion(is, openvdb::VersionId(v.library_major, v.library_minor), v.file_version);
+    }
+    ~TaggedStream() { openvdb::io::clearStreamMetadataPtr(is); }
+    // OpenVDB read exactly the bytes the Rust walk accounted for.
+    void expect_consumed(size_t n, const char* what) {
+        const auto at = is.tellg();
+        if (!is.good() || at < 0 || static_cast<size_t>(at) != n) {
+            std::ostringstream m;
+            m << "OpenVDB read " << static_cast<long long>(at) << " bytes of " << what << " where the check accounted for "
+              << n;
+            throw std::runtime_error(m.str());
+        }
+    }
+};
+
+// io::Archive::readGrid (compression flags, metadata, transform, topology,
+// buffers) is a protected static member.
+struct ArchiveReader : openvdb::io::Archive {
+    static void read(openvdb::GridBase::Ptr grid, const openvdb::io::GridDescriptor& gd, std::istream& is) {
+        openvdb::io::Archive::readGrid(grid, gd, is);
+    }
+};
 
 std::string to_std(rust::Str s) { return std::string(s.data(), s.size()); }
 
@@ -117,6 +190,30 @@ GridInfo make_info(const openvdb::GridBase& g, bool topology_loaded) {
             info.bbox_min = {bmin->value()[0], bmin->value()[1], bmin->value()[2]};
             info.bbox_max = {bmax->value()[0], bmax->value()[1], bmax->value()[2]};
         }
+    }
+    return info;
+}
+
+// A grid's info from its metadata and transform alone (any value type).
+GridInfo head_info(const openvdb::MetaMap& meta, const openvdb::math::Transform& xf) {
+    GridInfo info;
+    info.grid_class = "unknown";
+    if (auto c = meta.getMetadata<openvdb::StringMetadata>(openvdb::GridBase::META_GRID_CLASS))
+        info.grid_class = openvdb::GridBase::gridClassToString(openvdb::GridBase::stringToGridClass(c->value()));
+    fill_transform(xf, info);
+    info.metadata = collect_meta(meta);
+    info.active_voxels = 0;
+    info.bbox_min = {0, 0, 0};
+    info.bbox_max = {-1, -1, -1};
+    info.empty = true;
+    auto cnt = meta.getMetadata<openvdb::Int64Metadata>(openvdb::GridBase::META_FILE_VOXEL_COUNT);
+    auto bmin = meta.getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MIN);
+    auto bmax = meta.getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MAX);
+    if (cnt) info.active_voxels = static_cast<uint64_t>(cnt->value());
+    if (bmin && bmax && info.active_voxels > 0) {
+        info.empty = false;
+        info.bbox_min = {bmin->value()[0], bmin->value()[1], bmin->value()[2]};
+        info.bbox_max = {bmax->value()[0], bmax->value()[1], bmax->value()[2]};
     }
     return info;
 }
@@ -284,17 +381,6 @@ void sample_into(const openvdb::GridBase& base, rust::Slice<const double> xyz, r
 
 rust::String openvdb_version() { return rust::String(openvdb::getLibraryAbiVersionString()); }
 
-FileInfo read_file_info(rust::Str path) {
-    OpenFile f(to_std(path));
-    FileInfo out;
-    out.library_version = {f.file.libraryVersion().first, f.file.libraryVersion().second};
-    out.file_version = f.file.fileVersion();
-    if (auto meta = f.file.getMetadata()) out.metadata = collect_meta(*meta);
-    auto grids = f.file.readAllGridMetadata();
-    for (const auto& g : *grids) out.grids.push_back(make_info(*g, false));
-    return out;
-}
-
 struct LoadedGrid::Impl {
     openvdb::GridBase::Ptr grid;
     GridInfo info;
@@ -303,15 +389,42 @@ struct LoadedGrid::Impl {
 LoadedGrid::LoadedGrid() : impl(new Impl) {}
 LoadedGrid::~LoadedGrid() = default;
 
-std::unique_ptr<LoadedGrid> load_grid(rust::Str path, rust::Str grid) {
-    OpenFile f(to_std(path));
+rust::Vec<MetaEntry> read_metadata(rust::Slice<const uint8_t> bytes, const StreamVersion& v) {
+    TaggedStream s(bytes, v);
+    openvdb::MetaMap meta;
+    meta.readMeta(s.is);
+    s.expect_consumed(bytes.size(), "the file metadata");
+    return collect_meta(meta);
+}
+
+GridInfo read_grid_head(rust::Slice<const uint8_t> bytes, const StreamVersion& v) {
+    TaggedStream s(bytes, v);
+    uint32_t compression = 0;
+    s.is.read(reinterpret_cast<char*>(&compression), sizeof compression);
+    openvdb::MetaMap meta;
+    meta.readMeta(s.is);
+    openvdb::math::Transform xf;
+    xf.read(s.is);
+    s.expect_consumed(bytes.size(), "the grid's metadata and transform");
+    return head_info(meta, xf);
+}
+
+std::unique_ptr<LoadedGrid> load_grid_bytes(rust::Slice<const uint8_t> bytes, rust::Str unique_name,
+                                            rust::Str type_name, bool half, const StreamVersion& v) {
+    TaggedStream s(bytes, v);
+    const std::string type = to_std(type_name);
+    if (!openvdb::GridBase::isRegistered(type)) throw std::runtime_error("grid type " + type + " is not registered");
+    auto grid = openvdb::GridBase::createGrid(type);
+    grid->setSaveFloatAsHalf(half);
+    const openvdb::io::GridDescriptor gd(to_std(unique_name), type, half);
+    ArchiveReader::read(grid, gd, s.is);
+    s.expect_consumed(bytes.size(), "the grid");
     auto out = std::make_unique<LoadedGrid>();
-    out->impl->grid = read_one(f, to_std(grid));
-    // Voxel counts and bounds come from the metadata: evaluating them from
-    // the tree would walk every leaf, and Rust computes its own.
-    out->impl->info = make_info(*out->impl->grid, false);
+    out->impl->grid = grid;
+    out->impl->info = make_info(*grid, false);
     return out;
 }
+
 
 // Dispatches on the value types we read; returns false for any other.
 template <typename F> bool with_typed(const openvdb::GridBase& g, F&& f) {
@@ -422,6 +535,42 @@ void write_test_fixture(rust::Str path, rust::Str kind) {
         const openvdb::BBoxd box(openvdb::Vec3d(0, 0, 0), openvdb::Vec3d(16, 16, 16));
         g->setTransform(openvdb::math::Transform::createFrustumTransform(box, 0.5, 2.0, 0.1));
         grids.push_back(g);
+    } else if (k == "half" || k == "zip" || k == "uncompressed" || k == "inactive" || k == "instance") {
+        // Storage variants of one small float grid, for the reader's walk
+        // and the fuzzer's seeds: half floats, zlib, no compression at all,
+        // leaves whose inactive values need each mask-compression case, and
+        // a second grid sharing the first one's tree.
+        auto g = openvdb::FloatGrid::create(0.0f);
+        g->setName("density");
+        g->setGridClass(openvdb::GRID_FOG_VOLUME);
+        for (int i = 0; i < 40; ++i) g->tree().setValue(Coord(i, (7 * i) % 23, (3 * i) % 17), 0.05f + 0.02f * i);
+        g->tree().addTile(1, Coord(64, 0, 0), 0.5f, true);
+        g->tree().addTile(2, Coord(256, 0, 0), 0.25f, true);
+        if (k == "inactive") {
+            // One other inactive value (metadata 2), background plus one
+            // (4), two non-background values (5), more than two (6).
+            g->tree().setValueOff(Coord(1, 1, 1), 0.75f);
+            g->tree().setValueOn(Coord(17, 1, 1), 0.5f);
+            g->tree().setValueOff(Coord(18, 1, 1), 0.125f);
+            g->tree().setValueOn(Coord(33, 1, 1), 0.5f);
+            for (int z = 0; z < 8; ++z) g->tree().setValueOff(Coord(33, 2, z), z % 2 ? 0.3f : 0.6f);
+            g->tree().setValueOn(Coord(49, 1, 1), 0.5f);
+            for (int z = 0; z < 8; ++z) g->tree().setValueOff(Coord(49, 2, z), 0.1f * z);
+        }
+        if (k == "half") g->setSaveFloatAsHalf(true);
+        grids.push_back(g);
+        if (k == "instance") {
+            auto inst = g->copyGrid(); // shares the tree: written as an instance
+            inst->setName("density_copy");
+            inst->setTransform(openvdb::math::Transform::createLinearTransform(0.5));
+            grids.push_back(inst);
+        }
+        openvdb::io::File file(to_std(path));
+        if (k == "zip") file.setCompression(openvdb::io::COMPRESS_ZIP | openvdb::io::COMPRESS_ACTIVE_MASK);
+        if (k == "uncompressed") file.setCompression(openvdb::io::COMPRESS_NONE);
+        file.write(grids);
+        file.close();
+        return;
     } else {
         throw std::runtime_error("unknown fixture kind '" + k + "'");
     }

@@ -19,6 +19,7 @@ struct FileInfo;
 struct GridData;
 struct ReadStats;
 struct GridLayout;
+struct StreamVersion;
 
 /// A grid read by OpenVDB, held on the C++ side until Rust has copied it.
 /// Its contents are defined in vdb_bridge.cc, so this header stays free of
@@ -31,8 +32,10 @@ public:
     std::unique_ptr<Impl> impl;
 };
 
-FileInfo read_file_info(rust::Str path);
-std::unique_ptr<LoadedGrid> load_grid(rust::Str path, rust::Str grid);
+rust::Vec<MetaEntry> read_metadata(rust::Slice<const uint8_t> bytes, const StreamVersion& v);
+GridInfo read_grid_head(rust::Slice<const uint8_t> bytes, const StreamVersion& v);
+std::unique_ptr<LoadedGrid> load_grid_bytes(rust::Slice<const uint8_t> bytes, rust::Str unique_name,
+                                            rust::Str type_name, bool half, const StreamVersion& v);
 GridLayout grid_layout(const LoadedGrid& g);
 void copy_leaves(const LoadedGrid& g, rust::Slice<int32_t> origins, float* values, size_t values_len,
                  rust::Slice<uint64_t> masks);

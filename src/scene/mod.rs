@@ -20,6 +20,12 @@ mod validate;
 
 use std::path::Path;
 
+/// Largest scene file read. A scene is a few kilobytes (volumes live in
+/// `.vdb` files); parsing costs about 50 bytes of memory and 0.15 µs per
+/// byte of TOML (a fuzzed 9.6 MB scene of 100,000 lights took 1.6 s and
+/// 450 MB before it was refused), so a file this large is refused unread.
+pub const MAX_SCENE_BYTES: u64 = 1 << 20;
+
 pub use desc::{
     affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, EnvironmentDesc,
     Estimate, Integrator, LightDesc, MaterialDesc, PhaseDesc, PhotonSettings, Principled,
@@ -57,10 +63,29 @@ impl SceneDesc {
         if path.is_dir() {
             return Err(SceneError::NotAFile { file });
         }
-        let bytes = std::fs::read(path).map_err(|source| SceneError::Read {
+        let read_error = |source| SceneError::Read {
             file: file.clone(),
             source,
-        })?;
+        };
+        let mut f = std::fs::File::open(path).map_err(read_error)?;
+        // Read at most one byte past the limit: the size a file reports
+        // (a pipe, a growing file) need not be what it holds.
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(
+            &mut std::io::Read::take(&mut f, MAX_SCENE_BYTES + 1),
+            &mut bytes,
+        )
+        .map_err(read_error)?;
+        if bytes.len() as u64 > MAX_SCENE_BYTES {
+            return Err(SceneError::Parse {
+                file,
+                line: None,
+                message: format!(
+                    "the scene file is larger than {} MiB; scenes describe volumes, they do not hold them",
+                    MAX_SCENE_BYTES >> 20
+                ),
+            });
+        }
         let text = String::from_utf8(bytes).map_err(|e| {
             let valid = e.utf8_error().valid_up_to();
             let line = 1 + e.as_bytes()[..valid]

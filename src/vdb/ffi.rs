@@ -83,6 +83,15 @@ pub(crate) mod bridge {
         value: [f32; 3],
     }
 
+    /// A file's format and library version, which OpenVDB's readers take
+    /// from the stream.
+    #[derive(Debug, Clone, Copy)]
+    struct StreamVersion {
+        file_version: u32,
+        library_major: u32,
+        library_minor: u32,
+    }
+
     /// OpenVDB's own read of one grid, for the load benchmark.
     #[derive(Debug, Clone, Copy)]
     struct ReadStats {
@@ -97,8 +106,22 @@ pub(crate) mod bridge {
         /// A grid read by OpenVDB and held in C++ until Rust copies it.
         type LoadedGrid;
 
-        fn read_file_info(path: &str) -> Result<FileInfo>;
-        fn load_grid(path: &str, grid: &str) -> Result<UniquePtr<LoadedGrid>>;
+        /// File metadata (count and entries) parsed from bytes that
+        /// `vdb::header` has checked.
+        fn read_metadata(bytes: &[u8], v: &StreamVersion) -> Result<Vec<MetaEntry>>;
+        /// A grid's compression flags, metadata and transform, parsed from
+        /// bytes that `vdb::check` has walked (any value type; the name and
+        /// value type are left for the caller).
+        fn read_grid_head(bytes: &[u8], v: &StreamVersion) -> Result<GridInfo>;
+        /// A whole grid read by OpenVDB from bytes that `vdb::check` has
+        /// walked (its start to its end): the same bytes, not the file.
+        fn load_grid_bytes(
+            bytes: &[u8],
+            unique_name: &str,
+            type_name: &str,
+            half: bool,
+            v: &StreamVersion,
+        ) -> Result<UniquePtr<LoadedGrid>>;
         fn grid_layout(g: &LoadedGrid) -> Result<GridLayout>;
         /// Copies every leaf into buffers Rust allocated from the layout's
         /// leaf count: 3 origin coordinates, 512·channels values and 8 mask

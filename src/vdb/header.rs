@@ -18,12 +18,14 @@
 //! then grid start, data block start, grid end (i64 each); the next
 //! descriptor starts at the previous grid's end.
 
+use super::check::{check_meta_value, Field, FieldKind};
 use std::fmt;
 
 const MAGIC: i64 = 0x5644_4220;
-/// Oldest file version we accept (OpenVDB 2.0 wrote 222 and later).
-const MIN_VERSION: u32 = 213;
-const VERSION_GRID_INSTANCING: u32 = 216;
+/// Oldest file version we accept: OpenVDB 2.0 (2013) and later write 222
+/// and later, the layout `vdb::check` walks (older files stored leaf
+/// origins, buffer counts and uncompressed internal nodes differently).
+const MIN_VERSION: u32 = 222;
 
 /// One entry of the grid table.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,6 +78,11 @@ pub struct Header {
     pub metadata: Vec<(String, String, Vec<u8>)>,
     pub grids: Vec<GridDescriptor>,
     pub file_size: u64,
+    /// The file metadata's bytes as stored (count and entries), for
+    /// OpenVDB to parse from memory once this check has passed them.
+    pub metadata_bytes: Vec<u8>,
+    /// The header's counts, lengths and offsets (for fuzzers).
+    pub fields: Vec<Field>,
 }
 
 impl Header {
@@ -168,6 +175,7 @@ struct Reader<'s> {
     buf: Vec<u8>,
     base: u64,
     pos: usize,
+    fields: Vec<Field>,
 }
 
 impl Reader<'_> {
@@ -222,7 +230,12 @@ impl Reader<'_> {
     fn i64(&mut self, what: &str) -> Result<i64, HeaderError> {
         Ok(i64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
     }
+    fn note(&mut self, size: u32, kind: FieldKind) {
+        let offset = self.offset();
+        self.fields.push(Field { offset, size, kind });
+    }
     fn bytes(&mut self, what: &str) -> Result<Vec<u8>, HeaderError> {
+        self.note(4, FieldKind::Length);
         let n = self.u32(what)? as usize;
         Ok(self.take(n, what)?.to_vec())
     }
@@ -244,6 +257,7 @@ pub fn parse(src: &mut dyn Source, file_size: u64) -> Result<Header, HeaderError
         buf: Vec::new(),
         base: 0,
         pos: 0,
+        fields: Vec::new(),
     };
     let magic = r.i64("magic number").map_err(|_| HeaderError::NotVdb)?;
     if magic != MAGIC {
@@ -256,10 +270,9 @@ pub fn parse(src: &mut dyn Source, file_size: u64) -> Result<Header, HeaderError
     let major = r.u32("library version")?;
     let minor = r.u32("library version")?;
     let has_offsets = r.u8("grid offset flag")?;
-    if (220..222).contains(&file_version) {
-        r.u8("compression flag")?;
-    }
     let uuid = String::from_utf8_lossy(r.take(36, "UUID")?).into_owned();
+    let metadata_start = r.offset();
+    r.note(4, FieldKind::Count);
     let count = r.i32("file metadata count")?;
     if count < 0 || count as u64 > file_size {
         return Err(HeaderError::Corrupt(format!("file metadata count {count}")));
@@ -269,11 +282,16 @@ pub fn parse(src: &mut dyn Source, file_size: u64) -> Result<Header, HeaderError
         let name = r.string("file metadata name")?;
         let ty = r.string("file metadata type")?;
         let value = r.bytes("file metadata value")?;
+        check_meta_value(&ty, &value).map_err(|e| {
+            HeaderError::Corrupt(format!("file metadata '{name}' of type {ty}: {e}"))
+        })?;
         metadata.push((name, ty, value));
     }
+    let metadata_end = r.offset();
     if has_offsets == 0 {
         return Err(HeaderError::NoGridOffsets);
     }
+    r.note(4, FieldKind::Count);
     let grid_count = r.i32("grid count")?;
     if grid_count < 0 || grid_count as u64 > file_size / 16 {
         return Err(HeaderError::Corrupt(format!("grid count {grid_count}")));
@@ -283,19 +301,31 @@ pub fn parse(src: &mut dyn Source, file_size: u64) -> Result<Header, HeaderError
         let what = format!("descriptor of grid {}", g + 1);
         let unique_name = r.string(&what)?;
         let type_name = r.string(&what)?;
-        let instance_parent = if file_version >= VERSION_GRID_INSTANCING {
-            r.string(&what)?
-        } else {
-            String::new()
-        };
+        let instance_parent = r.string(&what)?;
+        let at = r.offset();
+        for k in 0..3 {
+            r.fields.push(Field {
+                offset: at + 8 * k,
+                size: 8,
+                kind: FieldKind::Offset,
+            });
+        }
         let grid_pos = r.i64(&what)?;
         let block_pos = r.i64(&what)?;
         let end_pos = r.i64(&what)?;
         let name = unique_name.split('\u{1e}').next().unwrap_or("").to_string();
         let desc_end = r.offset() as i64;
-        if grid_pos < desc_end || block_pos < grid_pos || end_pos < block_pos {
+        // The grid starts right after its descriptor; an instance (which
+        // shares its parent's tree) has no data block and OpenVDB writes 0
+        // as its data block offset.
+        let block_ok = if instance_parent.is_empty() {
+            (grid_pos..=end_pos).contains(&block_pos)
+        } else {
+            block_pos == 0
+        };
+        if grid_pos != desc_end || end_pos < grid_pos || !block_ok {
             return Err(HeaderError::Corrupt(format!(
-                "grid '{name}' has offsets out of order ({grid_pos}, {block_pos}, {end_pos})"
+                "grid '{name}' has offsets out of order ({grid_pos}, {block_pos}, {end_pos}; its descriptor ends at {desc_end})"
             )));
         }
         if end_pos as u64 > file_size {
@@ -328,6 +358,16 @@ pub fn parse(src: &mut dyn Source, file_size: u64) -> Result<Header, HeaderError
             )));
         }
     }
+    let metadata_bytes = r
+        .src
+        .read_at(metadata_start, (metadata_end - metadata_start) as usize)
+        .map_err(|e| HeaderError::Corrupt(format!("cannot read the file metadata: {e}")))?;
+    if metadata_bytes.len() as u64 != metadata_end - metadata_start {
+        return Err(HeaderError::TruncatedHeader {
+            what: "file metadata".into(),
+            at: metadata_start + metadata_bytes.len() as u64,
+        });
+    }
     Ok(Header {
         file_version,
         library_version: (major, minor),
@@ -335,5 +375,7 @@ pub fn parse(src: &mut dyn Source, file_size: u64) -> Result<Header, HeaderError
         metadata,
         grids,
         file_size,
+        metadata_bytes,
+        fields: r.fields,
     })
 }

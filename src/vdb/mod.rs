@@ -3,10 +3,13 @@
 //!
 //! Reading a grid: check the path and the header in Rust (a damaged file is
 //! refused at once, see [`header`]), refuse unsupported value types from the
-//! grid table, then let OpenVDB read the grid with delayed loading off and
-//! move it into a [`Grid`] leaf by leaf. Every error names the file and the
-//! grid.
+//! grid table, read the grid's bytes into memory and walk them in Rust
+//! ([`check`]: every count, length and flag OpenVDB will trust), then let
+//! OpenVDB parse those same bytes and move the grid into a [`Grid`] leaf by
+//! leaf. OpenVDB never reads the file itself. Every error names the file and
+//! the grid.
 
+pub mod check;
 mod ffi;
 pub mod header;
 
@@ -53,11 +56,50 @@ impl AnyGrid {
     }
 }
 
-/// An opened `.vdb` file whose header has been checked.
+/// An opened `.vdb` file whose header, and every grid's metadata and
+/// transform, have been checked.
 #[derive(Debug, Clone)]
 pub struct VdbFile {
     path: PathBuf,
     header: Header,
+    /// Per grid (in the header's order): its checked head, and the head's
+    /// bytes (compression flags, metadata, transform) for OpenVDB to parse.
+    heads: Vec<(check::Head, Vec<u8>)>,
+}
+
+/// Bytes read at first for a grid's head; most heads take under 2 KiB.
+const HEAD_READ: u64 = 1 << 16;
+
+/// Reads `len` bytes at `offset` of `path`; an error if the file holds fewer
+/// (it changed after its header was read).
+fn read_range(path: &Path, offset: u64, len: u64) -> Result<Vec<u8>> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    f.seek(SeekFrom::Start(offset))
+        .map_err(|e| Error::io(path, e))?;
+    let n = usize::try_from(len).map_err(|_| Error::file(path, "a grid is too large to read"))?;
+    let mut buf = Vec::new();
+    buf.try_reserve_exact(n)
+        .map_err(|_| Error::file(path, format!("cannot allocate {n} bytes to read a grid")))?;
+    f.take(len)
+        .read_to_end(&mut buf)
+        .map_err(|e| Error::io(path, e))?;
+    if buf.len() as u64 != len {
+        return Err(Error::file(
+            path,
+            "the file is shorter than its header says (it changed while being read)",
+        ));
+    }
+    Ok(buf)
+}
+
+/// Memory the system has available, from `/proc/meminfo` (`None` where it
+/// cannot be read).
+fn available_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 fn path_str(path: &Path) -> Result<&str> {
@@ -112,10 +154,43 @@ impl VdbFile {
         let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         let header =
             header::parse(&mut f, meta.len()).map_err(|e| Error::file(path, e.to_string()))?;
+        let mut heads = Vec::with_capacity(header.grids.len());
+        for d in &header.grids {
+            let corrupt =
+                |e: String| Error::grid(path, &d.name, format!("the file is corrupt: {e}"));
+            let len = d.end_pos - d.grid_pos;
+            let mut bytes = read_range(path, d.grid_pos, len.min(HEAD_READ))?;
+            let mut head = check::check_head(&bytes, d.grid_pos);
+            if head.is_err() && len > HEAD_READ {
+                // A head longer than the first read (long metadata).
+                bytes = read_range(path, d.grid_pos, len)?;
+                head = check::check_head(&bytes, d.grid_pos);
+            }
+            let head = head.map_err(corrupt)?;
+            if !d.instance_parent.is_empty() && head.len as u64 != len {
+                return Err(corrupt(format!(
+                    "the instance grid's metadata and transform end at byte {}, but the grid ends at byte {}",
+                    d.grid_pos + head.len as u64,
+                    d.end_pos
+                )));
+            }
+            bytes.truncate(head.len);
+            bytes.shrink_to_fit();
+            heads.push((head, bytes));
+        }
         Ok(Self {
             path: path.to_path_buf(),
             header,
+            heads,
         })
+    }
+
+    fn stream_version(&self) -> bridge::StreamVersion {
+        bridge::StreamVersion {
+            file_version: self.header.file_version,
+            library_major: self.header.library_version.0,
+            library_minor: self.header.library_version.1,
+        }
     }
 
     pub fn path(&self) -> &Path {
@@ -145,10 +220,64 @@ impl VdbFile {
             })
     }
 
-    /// File metadata and each grid's info, without reading the trees.
+    /// File metadata and each grid's info, without reading the trees:
+    /// OpenVDB parses the checked header and grid heads from memory.
     pub fn info(&self) -> Result<bridge::FileInfo> {
-        bridge::read_file_info(path_str(&self.path)?)
-            .map_err(|e| Error::file(&self.path, explain_openvdb(e.what())))
+        let v = self.stream_version();
+        let metadata = bridge::read_metadata(&self.header.metadata_bytes, &v)
+            .map_err(|e| Error::file(&self.path, explain_openvdb(e.what())))?;
+        let mut grids = Vec::with_capacity(self.heads.len());
+        for (d, (_, bytes)) in self.header.grids.iter().zip(&self.heads) {
+            let mut g = bridge::read_grid_head(bytes, &v)
+                .map_err(|e| Error::grid(&self.path, &d.name, explain_openvdb(e.what())))?;
+            g.name = d.name.clone();
+            g.value_type = d.value_type().to_string();
+            grids.push(g);
+        }
+        Ok(bridge::FileInfo {
+            file_version: self.header.file_version,
+            library_version: [self.header.library_version.0, self.header.library_version.1],
+            metadata,
+            grids,
+        })
+    }
+
+    /// The descriptor of the grid whose tree `d` uses: `d` itself, or the
+    /// parent of an instance (which must exist, have the same type and not
+    /// be an instance itself).
+    fn tree_owner<'a>(&'a self, d: &'a GridDescriptor) -> Result<&'a GridDescriptor> {
+        if d.instance_parent.is_empty() {
+            return Ok(d);
+        }
+        let p = self
+            .header
+            .grids
+            .iter()
+            .find(|p| p.unique_name == d.instance_parent)
+            .ok_or_else(|| {
+                Error::grid(
+                    &self.path,
+                    &d.name,
+                    "the file is corrupt: its instance parent is missing",
+                )
+            })?;
+        if p.type_name != d.type_name || !p.instance_parent.is_empty() {
+            return Err(Error::grid(
+                &self.path,
+                &d.name,
+                format!(
+                    "the file is corrupt: it is an instance of '{}', a {} grid{}",
+                    p.name,
+                    p.type_name,
+                    if p.instance_parent.is_empty() {
+                        ""
+                    } else {
+                        " that is itself an instance"
+                    }
+                ),
+            ));
+        }
+        Ok(p)
     }
 
     fn read_typed<T: GridValue>(&self, name: &str) -> Result<Grid<T>> {
@@ -181,9 +310,68 @@ impl VdbFile {
         }
         let openvdb_err =
             |e: cxx::Exception| Error::grid(&self.path, &d.name, explain_openvdb(e.what()));
-        let loaded =
-            bridge::load_grid(path_str(&self.path)?, &d.unique_name).map_err(openvdb_err)?;
-        let layout = bridge::grid_layout(&loaded).map_err(openvdb_err)?;
+        let owner = self.tree_owner(d)?;
+        let kind = check::ValueKind::of_type_name(&owner.type_name).ok_or_else(|| {
+            Error::grid(
+                &self.path,
+                &d.name,
+                format!(
+                    "has tree type {}, which vdbphoton does not read",
+                    owner.type_name
+                ),
+            )
+        })?;
+        let bytes = read_range(&self.path, owner.grid_pos, owner.end_pos - owner.grid_pos)?;
+        let (_, tree) = check::check_grid(&bytes, owner.grid_pos, owner.block_pos, kind, None)
+            .map_err(|e| Error::grid(&self.path, &d.name, format!("the file is corrupt: {e}")))?;
+        // Refuse what cannot fit before OpenVDB allocates it (a small file
+        // can describe far more nodes than it stores values).
+        let need =
+            tree.openvdb_bytes(kind.0) + tree.leaves as u64 * (512 * 4 * channels as u64 + 96);
+        if let Some(avail) = available_memory() {
+            if need > avail {
+                return Err(Error::grid(
+                    &self.path,
+                    &d.name,
+                    format!(
+                        "loading it would take about {:.1} GiB ({} leaves, {} internal nodes); {:.1} GiB are available",
+                        need as f64 / (1u64 << 30) as f64,
+                        tree.leaves,
+                        tree.internal_nodes.0 + tree.internal_nodes.1,
+                        avail as f64 / (1u64 << 30) as f64
+                    ),
+                ));
+            }
+        }
+        let base_type = owner
+            .type_name
+            .strip_suffix("_HalfFloat")
+            .unwrap_or(&owner.type_name);
+        let loaded = bridge::load_grid_bytes(
+            &bytes,
+            &owner.unique_name,
+            base_type,
+            kind.1,
+            &self.stream_version(),
+        )
+        .map_err(openvdb_err)?;
+        drop(bytes);
+        let mut layout = bridge::grid_layout(&loaded).map_err(openvdb_err)?;
+        if !std::ptr::eq(owner, d) {
+            // An instance: the parent's tree under the instance's own name,
+            // metadata and transform.
+            let i = self
+                .header
+                .grids
+                .iter()
+                .position(|g| std::ptr::eq(g, d))
+                .unwrap_or(0);
+            let mut info = bridge::read_grid_head(&self.heads[i].1, &self.stream_version())
+                .map_err(openvdb_err)?;
+            info.name = d.name.clone();
+            info.value_type = layout.info.value_type.clone();
+            layout.info = info;
+        }
         if !layout.info.linear {
             return Err(Error::grid(
                 &self.path,
@@ -393,7 +581,10 @@ pub mod reference {
     /// Writes a file our writer cannot make, for the reader's tests: an
     /// `int32` grid ("int32") or a frustum transform ("frustum"), which the
     /// reader must refuse, or a `double` grid ("double"), which it reads as
-    /// f32.
+    /// f32; a small float grid stored as half floats ("half"), with zlib
+    /// ("zip"), without compression ("uncompressed"), with inactive values
+    /// that need every mask-compression case ("inactive"), or with a second
+    /// grid that is an instance of it ("instance").
     pub fn write_unsupported_fixture(path: &Path, kind: &str) -> Result<()> {
         bridge::write_test_fixture(path_str(path)?, kind)
             .map_err(|e| Error::file(path, e.what().to_string()))

@@ -1,0 +1,119 @@
+//! Inputs the fuzz campaigns (tools/fuzz) found, kept small under
+//! `tests/data/fuzz/`: each must now be refused with one line naming the
+//! file and a nonzero exit, quickly, never with a signal.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_vdbphoton");
+
+fn data(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz")
+        .join(name)
+}
+
+/// Runs vdbphoton with `args`; asserts a clean refusal naming `name`.
+fn assert_refused(args: &[&std::ffi::OsStr], name: &str, within: Duration) -> String {
+    let t0 = Instant::now();
+    let out = Command::new(BIN).args(args).output().unwrap();
+    let took = t0.elapsed();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    let code = out
+        .status
+        .code()
+        .unwrap_or_else(|| panic!("killed by a signal: {err}"));
+    assert_eq!(code, 1, "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("vdbphoton: error: ") && err.contains(name),
+        "{err}"
+    );
+    assert!(took < within, "took {took:?}");
+    err
+}
+
+/// A 9.6 MB scene of 100,000 lights (the campaign's "array lengthened")
+/// took 1.6 s and 450 MB to be refused; scene files over 1 MiB are now
+/// refused unread. Made here rather than committed.
+#[test]
+fn huge_scene_file_is_refused_unread() {
+    let dir = common::tempdir();
+    let p = dir.path().join("lights.toml");
+    let light = "[[light]]\ntype = \"sun\"\ndirection = [0.0, 0.0, 1.0]\nirradiance = 1.0\n\n";
+    std::fs::write(&p, light.repeat(30_000)).unwrap();
+    let err = assert_refused(
+        &["render".as_ref(), p.as_os_str()],
+        "lights.toml",
+        Duration::from_secs(2),
+    );
+    assert!(err.contains("larger than 1 MiB"), "{err}");
+}
+
+/// Campaign seed 1, input 4, against the reader before the grid walk: one
+/// byte of a half-float leaf's block length (the top byte, making it a
+/// huge negative "uncompressed" length). OpenVDB's `bloscFromStream` read
+/// that many bytes into the leaf's buffer: SIGSEGV or glibc's "corrupted
+/// size vs. prev_size".
+#[test]
+fn leaf_block_length_that_overran_a_heap_buffer() {
+    let p = data("leaf_block_length_half.vdb");
+    let err = assert_refused(
+        &["info".as_ref(), p.as_os_str()],
+        "leaf_block_length_half.vdb",
+        Duration::from_secs(2),
+    );
+    assert!(
+        err.contains("grid 'density'") && err.contains("leaf 14 of 30"),
+        "{err}"
+    );
+    assert!(err.contains("uncompressed block claims"), "{err}");
+}
+
+/// Input 114: the same in an internal node's value block
+/// (`InternalNode::readTopology`): "free(): invalid pointer" or SIGSEGV.
+#[test]
+fn internal_node_block_length_that_overran_a_heap_buffer() {
+    let p = data("node_block_length.vdb");
+    let err = assert_refused(
+        &["info".as_ref(), p.as_os_str()],
+        "node_block_length.vdb",
+        Duration::from_secs(2),
+    );
+    assert!(
+        err.contains("node at (-128, 0, -128)") && err.contains("its values"),
+        "{err}"
+    );
+}
+
+/// Input 1801: one byte of the root's tile count. OpenVDB read millions of
+/// tiles past the topology's end and took 107 s to fail.
+#[test]
+fn root_tile_count_that_took_minutes() {
+    let p = data("root_tile_count.vdb");
+    let err = assert_refused(
+        &["info".as_ref(), p.as_os_str()],
+        "root_tile_count.vdb",
+        Duration::from_secs(2),
+    );
+    assert!(err.contains("root tile"), "{err}");
+}
+
+/// Input 1922: one byte of a grid metadata name's length. OpenVDB
+/// allocated for it and the garbage after it: 15 s and 9.5 GB.
+#[test]
+fn metadata_name_length_that_took_gigabytes() {
+    let p = data("metadata_name_length.vdb");
+    let err = assert_refused(
+        &["info".as_ref(), p.as_os_str()],
+        "metadata_name_length.vdb",
+        Duration::from_secs(2),
+    );
+    assert!(
+        err.contains("a metadata name") && err.contains("runs past the grid's end"),
+        "{err}"
+    );
+}
