@@ -59,7 +59,17 @@ fn load_volume(v: &VolumeDesc, warnings: &mut Vec<String>) -> Result<Option<Volu
         color: v
             .color_grid
             .as_deref()
-            .map(|n| f.read_vec3(n))
+            .map(|n| {
+                let g = f.read_vec3(n)?;
+                if !g.all_finite() {
+                    return Err(Error::grid(
+                        f.path(),
+                        n,
+                        "has NaN or infinite values; fix the simulation or its export",
+                    ));
+                }
+                Ok(g)
+            })
             .transpose()?,
         blackbody_filter: v.blackbody_filter,
     };
