@@ -1,23 +1,105 @@
-//! A pinhole camera with a vertical field of view, as Blender's with sensor
-//! fit "vertical".
+//! A pinhole camera, as Blender's perspective camera: a frame (right, up,
+//! forward), the half-extents of the image plane at unit distance, and
+//! Blender's lens shift.
+//!
+//! Blender's sensor fit decides which image side the sensor size spans
+//! (`BKE_camera_params_compute_viewplane`): `horizontal` makes
+//! `sensor_width` span the image width, `vertical` makes `sensor_height`
+//! span the height, and `auto` makes `sensor_width` span the longer side.
+//! Shift moves the image plane by a fraction of that fitted side. Pixels
+//! are square.
 
 use glam::{Vec2, Vec3};
+
+/// Which image side the sensor spans (Blender's `sensor_fit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SensorFit {
+    /// `sensor_width` spans the longer side (Blender's default).
+    #[default]
+    Auto,
+    /// `sensor_width` spans the width.
+    Horizontal,
+    /// `sensor_height` spans the height.
+    Vertical,
+}
+
+/// The image plane at unit distance: half-extents and the shift of its
+/// centre, in units of distance (tangents).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plane {
+    pub tan_half_x: f32,
+    pub tan_half_y: f32,
+    pub shift_x: f32,
+    pub shift_y: f32,
+}
+
+impl Plane {
+    /// A vertical field of view in degrees (no shift).
+    pub fn vfov(vfov_deg: f32, width: u32, height: u32) -> Self {
+        let t = (vfov_deg.to_radians() * 0.5).tan();
+        Self {
+            tan_half_x: t * width as f32 / height as f32,
+            tan_half_y: t,
+            shift_x: 0.0,
+            shift_y: 0.0,
+        }
+    }
+
+    /// Blender's lens: focal length and sensor size in millimetres, sensor
+    /// fit, and shift (a fraction of the fitted side).
+    pub fn sensor(
+        focal_length: f32,
+        sensor: Vec2,
+        fit: SensorFit,
+        shift: Vec2,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let (w, h) = (width as f32, height as f32);
+        let horizontal = match fit {
+            SensorFit::Auto => w >= h,
+            SensorFit::Horizontal => true,
+            SensorFit::Vertical => false,
+        };
+        // Auto and horizontal fits use the sensor width, vertical the
+        // height; `t` is half the fitted side at unit distance.
+        let size = if fit == SensorFit::Vertical {
+            sensor.y
+        } else {
+            sensor.x
+        };
+        let t = 0.5 * size / focal_length;
+        let (tan_half_x, tan_half_y) = if horizontal {
+            (t, t * h / w)
+        } else {
+            (t * w / h, t)
+        };
+        let fitted = 2.0 * t;
+        Self {
+            tan_half_x,
+            tan_half_y,
+            shift_x: shift.x * fitted,
+            shift_y: shift.y * fitted,
+        }
+    }
+}
 
 #[derive(Debug, Clone, Copy)]
 pub struct Camera {
     position: Vec3,
-    /// Camera frame: right, up, forward (unit).
+    /// Camera frame: right, up, forward (unit, orthogonal).
     right: Vec3,
     up: Vec3,
     forward: Vec3,
-    /// tan(vfov / 2).
-    tan_half: f32,
+    plane: Plane,
     width: u32,
     height: u32,
 }
 
 impl Camera {
-    /// `up` need not be orthogonal to the view direction, only not parallel.
+    /// A camera at `position` looking at `look_at` with a vertical field of
+    /// view. `up` need not be orthogonal to the view direction, only not
+    /// parallel.
     pub fn new(
         position: Vec3,
         look_at: Vec3,
@@ -27,6 +109,27 @@ impl Camera {
         height: u32,
     ) -> Self {
         let forward = (look_at - position).normalize();
+        Self::with_frame(
+            position,
+            forward,
+            up,
+            Plane::vfov(vfov_deg, width, height),
+            width,
+            height,
+        )
+    }
+
+    /// A camera looking along `forward` with `up` (not parallel to it)
+    /// giving the image's upward direction, and image plane `plane`.
+    pub fn with_frame(
+        position: Vec3,
+        forward: Vec3,
+        up: Vec3,
+        plane: Plane,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let forward = forward.normalize();
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         Self {
@@ -34,7 +137,7 @@ impl Camera {
             right,
             up,
             forward,
-            tan_half: (vfov_deg.to_radians() * 0.5).tan(),
+            plane,
             width,
             height,
         }
@@ -44,10 +147,20 @@ impl Camera {
         self.position
     }
 
+    /// The unit view direction (through the image centre without shift).
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+
+    /// The image plane.
+    pub fn plane(&self) -> Plane {
+        self.plane
+    }
+
     /// The angle one pixel subtends at the image centre, radians (small
-    /// angles: 2·tan(vfov/2) / height).
+    /// angles; pixels are square).
     pub fn pixel_angle(&self) -> f32 {
-        2.0 * self.tan_half / self.height as f32
+        2.0 * self.plane.tan_half_y / self.height as f32
     }
 
     /// Image width in pixels.
@@ -63,9 +176,78 @@ impl Camera {
     /// The unit direction through film position `film` in pixels (x right,
     /// y down, (0,0) the top-left corner of the top-left pixel).
     pub fn direction(&self, film: Vec2) -> Vec3 {
-        let aspect = self.width as f32 / self.height as f32;
-        let sx = (2.0 * film.x / self.width as f32 - 1.0) * self.tan_half * aspect;
-        let sy = (1.0 - 2.0 * film.y / self.height as f32) * self.tan_half;
+        let p = &self.plane;
+        let sx = (2.0 * film.x / self.width as f32 - 1.0) * p.tan_half_x + p.shift_x;
+        let sy = (1.0 - 2.0 * film.y / self.height as f32) * p.tan_half_y + p.shift_y;
         (self.forward + self.right * sx + self.up * sy).normalize()
+    }
+
+    /// The film position (pixels) where the point `p` appears, if it is in
+    /// front of the camera: the inverse of [`Camera::direction`].
+    pub fn project(&self, p: Vec3) -> Option<Vec2> {
+        let d = p - self.position;
+        let z = d.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let pl = &self.plane;
+        let sx = d.dot(self.right) / z;
+        let sy = d.dot(self.up) / z;
+        Some(Vec2::new(
+            ((sx - pl.shift_x) / pl.tan_half_x + 1.0) * 0.5 * self.width as f32,
+            (1.0 - (sy - pl.shift_y) / pl.tan_half_y) * 0.5 * self.height as f32,
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensor_fit_spans_the_side_blender_says() {
+        let s = Vec2::new(36.0, 24.0);
+        // Landscape, auto = horizontal: 36 mm across the width.
+        let p = Plane::sensor(50.0, s, SensorFit::Auto, Vec2::ZERO, 160, 90);
+        assert!((p.tan_half_x - 0.36).abs() < 1e-6);
+        assert!((p.tan_half_y - 0.36 * 90.0 / 160.0).abs() < 1e-6);
+        // Portrait, auto: the sensor width spans the height.
+        let p = Plane::sensor(50.0, s, SensorFit::Auto, Vec2::ZERO, 90, 160);
+        assert!((p.tan_half_y - 0.36).abs() < 1e-6);
+        // Vertical: the sensor height spans the height.
+        let p = Plane::sensor(50.0, s, SensorFit::Vertical, Vec2::ZERO, 160, 90);
+        assert!((p.tan_half_y - 0.24).abs() < 1e-6);
+        // Horizontal on a portrait image: the width still gets 36 mm.
+        let p = Plane::sensor(50.0, s, SensorFit::Horizontal, Vec2::new(0.1, 0.0), 90, 160);
+        assert!((p.tan_half_x - 0.36).abs() < 1e-6);
+        assert!((p.shift_x - 0.1 * 0.72).abs() < 1e-6);
+    }
+
+    #[test]
+    fn project_inverts_direction() {
+        let plane = Plane::sensor(
+            35.0,
+            Vec2::new(36.0, 24.0),
+            SensorFit::Auto,
+            Vec2::new(0.1, -0.05),
+            64,
+            48,
+        );
+        let c = Camera::with_frame(
+            Vec3::new(1.0, -4.0, 0.5),
+            Vec3::new(-0.2, 1.0, -0.1),
+            Vec3::Z,
+            plane,
+            64,
+            48,
+        );
+        for f in [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(31.5, 20.25),
+            Vec2::new(64.0, 48.0),
+        ] {
+            let p = c.position() + c.direction(f) * 3.0;
+            assert!((c.project(p).unwrap() - f).length() < 1e-3);
+        }
     }
 }

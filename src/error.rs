@@ -37,6 +37,9 @@ pub enum Error {
     /// finished; nothing was written (an earlier checkpoint stays).
     #[error("interrupted by {}: nothing written", crate::interrupt::signal_name(*signal))]
     Interrupted { signal: i32 },
+    /// An error with where it happened (`scene.toml, [[volume]] 2`).
+    #[error("{context}: {source}")]
+    Context { context: String, source: Box<Error> },
 }
 
 impl Error {
@@ -46,7 +49,29 @@ impl Error {
     pub fn exit_code(&self) -> u8 {
         match self {
             Error::Interrupted { signal } => (128 + *signal).clamp(0, 255) as u8,
+            Error::Context { source, .. } => source.exit_code(),
             _ => 1,
+        }
+    }
+
+    /// This error with `context` in front (an interruption stays as it
+    /// is: it is not about any input).
+    pub fn context(self, context: impl Into<String>) -> Error {
+        match self {
+            e @ Error::Interrupted { .. } => e,
+            e => Error::Context {
+                context: context.into(),
+                source: Box::new(e),
+            },
+        }
+    }
+
+    /// Whether this is an interruption by a signal (possibly with context).
+    pub fn is_interrupt(&self) -> bool {
+        match self {
+            Error::Interrupted { .. } => true,
+            Error::Context { source, .. } => source.is_interrupt(),
+            _ => false,
         }
     }
 }

@@ -14,7 +14,7 @@ use glam::{DVec3, Vec4};
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)` in a `width` x `height`
 /// image.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Region {
     pub x0: u32,
     pub y0: u32,
@@ -43,6 +43,90 @@ impl Region {
     }
     pub fn contains(&self, x: u32, y: u32) -> bool {
         x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
+    }
+    /// Whether the two regions share a pixel.
+    pub fn overlaps(&self, o: &Region) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
+
+    /// The grid `--tile I/N` cuts a `width` x `height` image into: `cols` x
+    /// `rows` = `n` tiles as close to square as the factors of `n` allow
+    /// (ties: more columns).
+    pub fn tile_grid(n: u32, width: u32, height: u32) -> (u32, u32) {
+        let mut best = (n, 1);
+        let mut best_score = f64::INFINITY;
+        for cols in (1..=n).rev() {
+            if !n.is_multiple_of(cols) {
+                continue;
+            }
+            let rows = n / cols;
+            let aspect = (width as f64 / cols as f64) / (height as f64 / rows as f64);
+            let score = aspect.ln().abs();
+            if score < best_score - 1e-12 {
+                best = (cols, rows);
+                best_score = score;
+            }
+        }
+        best
+    }
+
+    /// Tile `i` of `n` of a `width` x `height` image (`--tile I/N`):
+    /// row-major from the top-left in the grid of [`Region::tile_grid`],
+    /// edges at `floor(width · col / cols)`, so the tiles cover the image
+    /// without overlap. `None` when `i >= n`, `n` is 0 or a tile would be
+    /// empty.
+    pub fn tile(i: u32, n: u32, width: u32, height: u32) -> Option<Region> {
+        if n == 0 || i >= n {
+            return None;
+        }
+        let (cols, rows) = Self::tile_grid(n, width, height);
+        let (c, r) = (i % cols, i / cols);
+        let edge = |k: u32, of: u32, size: u32| (size as u64 * k as u64 / of as u64) as u32;
+        let t = Region {
+            x0: edge(c, cols, width),
+            x1: edge(c + 1, cols, width),
+            y0: edge(r, rows, height),
+            y1: edge(r + 1, rows, height),
+        };
+        (t.pixels() > 0).then_some(t)
+    }
+
+    /// Reads `X0,Y0,X1,Y1` (`--region`), checked against a `width` x
+    /// `height` image.
+    pub fn parse(s: &str, width: u32, height: u32) -> Result<Region, String> {
+        let v: Vec<u32> = s
+            .split(',')
+            .map(|t| t.trim().parse().ok())
+            .collect::<Option<_>>()
+            .filter(|v: &Vec<u32>| v.len() == 4)
+            .ok_or_else(|| {
+                format!(
+                    "--region '{s}': expected four pixel numbers X0,Y0,X1,Y1 (e.g. 0,0,160,120)"
+                )
+            })?;
+        let r = Region {
+            x0: v[0],
+            y0: v[1],
+            x1: v[2],
+            y1: v[3],
+        };
+        if r.x0 >= r.x1 || r.y0 >= r.y1 {
+            return Err(format!(
+                "--region '{s}': the region is empty (X0 < X1 and Y0 < Y1 are needed)"
+            ));
+        }
+        if r.x1 > width || r.y1 > height {
+            return Err(format!(
+                "--region '{s}' reaches outside the {width} x {height} image"
+            ));
+        }
+        Ok(r)
+    }
+}
+
+impl std::fmt::Display for Region {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
     }
 }
 
@@ -184,9 +268,10 @@ impl Film {
             .collect()
     }
 
-    /// The means as an image of the region: RGBA (alpha = 1 − the
-    /// transmittance along the camera ray) and, when kept, the AOV layers
-    /// `direct`, `indirect`, `emission` and `transmittance`.
+    /// The means as an image of the region, placed in the whole image (its
+    /// data window): RGBA (alpha = 1 − the transmittance along the camera
+    /// ray) and, when kept, the AOV layers `direct`, `indirect`, `emission`
+    /// and `transmittance`.
     pub fn to_image(&self) -> Result<Image, ImageError> {
         let (w, h) = (self.region.width() as usize, self.region.height() as usize);
         let tr = self.mean_transmittance();
@@ -216,6 +301,10 @@ impl Film {
                 layer.set(i % w, i / w, &[*t]);
             }
         }
+        image.set_window(
+            (self.region.x0 as usize, self.region.y0 as usize),
+            (self.width as usize, self.height as usize),
+        )?;
         Ok(image)
     }
 }

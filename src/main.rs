@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
+use vdbphoton::image::View;
 use vdbphoton::vdb::{self, AnyGrid, VdbFile};
 use vdbphoton::{generate, Error, Result};
 
@@ -22,13 +23,39 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (TOML, or JSON by extension) to an EXR, and optionally
-    /// a PNG preview. Command-line values override the scene's.
+    /// a PNG preview. Command-line values override the scene's. Given a .vdb
+    /// file instead of a scene, renders a quick look at it.
     Render(RenderArgs),
-    /// Show the grids of a .vdb file (like `vdb_print -l`), with the memory the
-    /// Rust grid takes and the load time.
+    /// A quick look at a .vdb file: a camera framing its grids, a sun and a
+    /// sky, Blender's default material; writes FILE.png (and FILE.exr) in
+    /// the working directory. Takes the same options as `render`.
+    View(RenderArgs),
+    /// Assemble the tiles of a frame (`render --tile I/N`), or average renders
+    /// of the same pixels with different seeds, into one EXR.
+    Merge {
+        /// The merged EXR.
+        out: PathBuf,
+        /// The tiles or renders (EXRs vdbphoton wrote).
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Also write an 8-bit PNG preview here.
+        #[arg(long)]
+        preview: Option<PathBuf>,
+        /// Preview exposure in stops (default: the inputs' own).
+        #[arg(long, allow_negative_numbers = true)]
+        exposure: Option<f32>,
+        /// Preview view transform: standard, agx (Blender 4 and 5's default)
+        /// or filmic (Blender 3's) (default: the inputs' own).
+        #[arg(long, value_parser = parse_view)]
+        view: Option<View>,
+    },
+    /// Show the grids of .vdb files (like `vdb_print -l`): value type, voxel
+    /// counts, index and world boxes, transform, value range, the memory
+    /// a grid takes when loaded and the load time.
     Info {
-        /// The .vdb file.
-        file: PathBuf,
+        /// The .vdb files.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
         /// Only this grid (an unknown name or an unsupported type is an error).
         #[arg(long)]
         grid: Option<String>,
@@ -40,12 +67,22 @@ enum Command {
     Compare {
         /// The image to judge (EXR).
         image: PathBuf,
-        /// The reference (EXR).
+        /// The reference (EXR), e.g. a Cycles render of the same scene.
         reference: PathBuf,
-        /// Also write a false-colour difference image (red: image brighter,
-        /// blue: darker).
+        /// Also write a false-colour difference image (PNG; red: image
+        /// brighter, blue: darker, full colour at the largest difference).
         #[arg(long)]
         diff: Option<PathBuf>,
+        /// Also write a PNG of the image, the reference and their difference
+        /// side by side, with the figures written under them.
+        #[arg(long)]
+        side_by_side: Option<PathBuf>,
+        /// Exposure of the side-by-side pictures, in stops.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+        /// View transform of the side-by-side pictures.
+        #[arg(long, value_parser = parse_view, default_value = "standard")]
+        view: View,
     },
     /// Write a grid as a dense Mitsuba `.vol` file (for comparison renders):
     /// the active bounding box padded by one voxel, cell centres on the
@@ -77,32 +114,37 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// The scene file.
+    /// The scene file (or a .vdb file for a quick look).
     scene: PathBuf,
-    /// Output EXR (default: the scene's `output`).
+    /// Output EXR (default: the scene's `output`); may hold {frame:04},
+    /// #### or {tile}.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Samples per pixel.
-    #[arg(long)]
+    /// Samples per pixel (at least 1).
+    #[arg(long, value_parser = parse_count, allow_negative_numbers = true)]
     spp: Option<u32>,
     /// Worker threads (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
+    #[arg(long, value_parser = parse_count, allow_negative_numbers = true)]
+    threads: Option<u32>,
     /// Random seed.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_seed, allow_negative_numbers = true)]
     seed: Option<u64>,
     /// Image width in pixels.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_count, allow_negative_numbers = true)]
     width: Option<u32>,
     /// Image height in pixels.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_count, allow_negative_numbers = true)]
     height: Option<u32>,
     /// Also write an 8-bit sRGB PNG preview here.
     #[arg(long)]
     preview: Option<PathBuf>,
     /// Preview exposure in stops.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     exposure: Option<f32>,
+    /// Preview view transform: standard, agx (Blender 4 and 5's default) or
+    /// filmic (Blender 3's).
+    #[arg(long, value_parser = parse_view)]
+    view: Option<View>,
     /// Write AOV layers (direct, indirect, emission, transmittance).
     #[arg(long)]
     aovs: bool,
@@ -124,9 +166,78 @@ struct RenderArgs {
     /// starts.
     #[arg(long, value_parser = parse_bytes)]
     max_memory: Option<u64>,
+    /// Render these frames of a sequence: 1-40, 1-3,5,7-20:2 (frame patterns
+    /// in the scene's paths are filled in; seeds derive from (seed, frame)).
+    #[arg(long, value_parser = parse_frame_list, conflicts_with = "frame")]
+    frames: Option<FrameList>,
+    /// Render one frame of a sequence.
+    #[arg(long, value_parser = parse_frame)]
+    frame: Option<u32>,
+    /// Leave frames whose EXR already exists (resumes a sequence).
+    #[arg(long)]
+    skip_existing: bool,
+    /// Render only these pixels: X0,Y0,X1,Y1 (end exclusive); the EXR's data
+    /// window is the region inside the whole image.
+    #[arg(long, conflicts_with = "tile")]
+    region: Option<String>,
+    /// Render only tile I of N (0 <= I < N) of a fixed grid; `merge`
+    /// assembles the tiles.
+    #[arg(long, value_parser = parse_tile)]
+    tile: Option<(u32, u32)>,
     /// No progress output (the summary line is still printed).
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// A count given on the command line: a whole number, at least 1.
+fn parse_count(s: &str) -> std::result::Result<u32, String> {
+    match s.trim().parse::<i64>() {
+        Ok(v) if (1..=u32::MAX as i64).contains(&v) => Ok(v as u32),
+        Ok(_) => Err(format!("must be a whole number from 1 to {}", u32::MAX)),
+        Err(_) => Err("must be a whole number, at least 1".to_string()),
+    }
+}
+
+fn parse_seed(s: &str) -> std::result::Result<u64, String> {
+    s.trim()
+        .parse::<u64>()
+        .map_err(|_| format!("must be a whole number from 0 to {}", u64::MAX))
+}
+
+/// The frames of `--frames` (a type of its own: clap takes a bare `Vec` for
+/// an option given several times).
+#[derive(Debug, Clone)]
+struct FrameList(Vec<u32>);
+
+fn parse_frame_list(s: &str) -> std::result::Result<FrameList, String> {
+    vdbphoton::sequence::parse_frames(s).map(FrameList)
+}
+
+fn parse_frame(s: &str) -> std::result::Result<u32, String> {
+    match vdbphoton::sequence::parse_frames(s) {
+        Ok(f) if f.len() == 1 => Ok(f[0]),
+        _ => Err(format!(
+            "must be one frame number from 0 to {} (use --frames for several)",
+            vdbphoton::sequence::MAX_FRAME
+        )),
+    }
+}
+
+fn parse_tile(s: &str) -> std::result::Result<(u32, u32), String> {
+    let bad = || format!("'{s}' is not a tile: write I/N, tile I (from 0) of N, e.g. 3/16");
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n): (u32, u32) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(format!("'{s}': the tile I of I/N must be 0 to N-1"));
+    }
+    Ok((i, n))
+}
+
+fn parse_view(s: &str) -> std::result::Result<View, String> {
+    View::parse(s)
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -204,8 +315,9 @@ struct Loaded {
     seconds: f64,
 }
 
-fn info(file: PathBuf, only: Option<String>, json: bool) -> Result<()> {
-    let vdb = VdbFile::open(&file)?;
+/// Prints the grids of `file` (as text), or returns them as JSON.
+fn info(file: &std::path::Path, only: Option<String>, json: bool) -> Result<serde_json::Value> {
+    let vdb = VdbFile::open(file)?;
     let names: Vec<String> = match &only {
         Some(g) => vec![vdb.descriptor(g)?.name.clone()],
         None => vdb.grid_names().iter().map(|s| s.to_string()).collect(),
@@ -258,6 +370,10 @@ fn info(file: PathBuf, only: Option<String>, json: bool) -> Result<()> {
                     o["load_seconds"] = l.seconds.into();
                     let (bounds, bricks, tiles) = grid_summary(&l.grid);
                     o["index_bbox"] = serde_json::json!(bounds);
+                    if let (Some(b), Some(gi)) = (bounds, gi) {
+                        let [lo, hi] = world_box(gi, b);
+                        o["world_bbox"] = serde_json::json!([lo, hi]);
+                    }
                     o["bricks"] = bricks.into();
                     o["tiles"] = serde_json::json!(tiles);
                 }
@@ -272,8 +388,7 @@ fn info(file: PathBuf, only: Option<String>, json: bool) -> Result<()> {
             "metadata": finfo.metadata.iter().map(|m| (m.name.clone(), serde_json::Value::from(m.value.clone()))).collect::<serde_json::Map<_, _>>(),
             "grids": grids,
         });
-        println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
-        return Ok(());
+        return Ok(out);
     }
     println!(
         "{}: {} ({} grid{}, VDB format {}, written by OpenVDB {}.{})",
@@ -301,6 +416,21 @@ fn info(file: PathBuf, only: Option<String>, json: bool) -> Result<()> {
             continue;
         };
         let (bounds, bricks, tiles) = grid_summary(&l.grid);
+        if let (Some(b), Some(gi)) = (bounds, gi) {
+            let [lo, hi] = world_box(gi, b);
+            println!(
+                "  world box [{:.4}, {:.4}, {:.4}] -> [{:.4}, {:.4}, {:.4}]  (size {:.4} x {:.4} x {:.4}; voxels reach half a voxel past their centres)",
+                lo[0],
+                lo[1],
+                lo[2],
+                hi[0],
+                hi[1],
+                hi[2],
+                hi[0] - lo[0],
+                hi[1] - lo[1],
+                hi[2] - lo[2]
+            );
+        }
         match bounds {
             Some([lo, hi]) => println!(
                 "  active voxels {}   index bbox [{},{},{}] -> [{},{},{}]  ({} x {} x {})",
@@ -342,12 +472,19 @@ fn info(file: PathBuf, only: Option<String>, json: bool) -> Result<()> {
             AnyGrid::Vec3(g) => println!("  background {}", g.background()),
         }
         println!(
-            "  Rust grid memory {}   load {:.1} ms",
+            "  memory when rendered {}   load {:.1} ms",
             human_bytes(l.grid.memory_bytes() as u64),
             l.seconds * 1e3
         );
     }
-    Ok(())
+    Ok(serde_json::Value::Null)
+}
+
+/// The world-space box of the voxels `[lo, hi]` (index, inclusive) of a
+/// grid.
+fn world_box(gi: &vdb::GridInfo, [lo, hi]: [[i32; 3]; 2]) -> [[f64; 3]; 2] {
+    let d = |v: [i32; 3]| glam::DVec3::from(v.map(f64::from));
+    vdbphoton::world::index_box(gi, d(lo), d(hi)).map(|v| v.to_array())
 }
 
 type Summary = (Option<[[i32; 3]; 2]>, usize, [usize; 3]);
@@ -370,12 +507,141 @@ fn grid_summary(g: &AnyGrid) -> Summary {
     }
 }
 
-fn render(a: RenderArgs) -> Result<()> {
+/// The command line's reporter: progress on stderr (a bar on a terminal, a
+/// line every 10 % otherwise, for farm logs), `Saved: 'PATH'` on stdout
+/// for every file a finished render writes (the line Flamenco reads).
+struct CliReporter {
+    quiet: bool,
+    tty: bool,
+    last_decile: std::sync::atomic::AtomicUsize,
+    throttle: vdbphoton::render::Throttle,
+    /// "frame N: " while a sequence renders.
+    frame: std::sync::Mutex<String>,
+}
+
+impl vdbphoton::render::Reporter for CliReporter {
+    fn warning(&self, m: &str) {
+        self.end_bar();
+        eprintln!("vdbphoton: warning: {m}");
+    }
+    fn progress(&self, p: vdbphoton::render::Progress) {
+        if self.quiet {
+            return;
+        }
+        let eta = p.eta.map_or("?".to_string(), |e| format!("{e:.0}s"));
+        let frame = self.frame.lock().map(|f| f.clone()).unwrap_or_default();
+        if self.tty {
+            if !self.throttle.ready(p.fraction >= 1.0) {
+                return;
+            }
+            let n = ((p.fraction * 30.0) as usize).min(30);
+            eprint!(
+                "\r{frame}rendering [{}{}] {:5.1}%  pass {}  {:.0}s elapsed, ETA {eta} ",
+                "#".repeat(n),
+                " ".repeat(30 - n),
+                p.fraction * 100.0,
+                p.passes + 1,
+                p.elapsed
+            );
+        } else {
+            let decile = (p.fraction * 10.0) as usize;
+            if decile
+                > self
+                    .last_decile
+                    .fetch_max(decile, std::sync::atomic::Ordering::Relaxed)
+            {
+                eprintln!(
+                    "{frame}rendering: {:3.0}% ({:.1} s elapsed, ETA {eta})",
+                    decile as f64 * 10.0,
+                    p.elapsed
+                );
+            }
+        }
+    }
+    fn checkpoint(&self, path: &std::path::Path, passes: u32) {
+        if !self.quiet {
+            self.end_bar();
+            eprintln!("checkpoint: {} after {passes} passes", path.display());
+        }
+    }
+    fn saved(&self, path: &std::path::Path) {
+        self.end_bar();
+        println!("Saved: '{}'", path.display());
+        let _ = std::io::Write::flush(&mut std::io::stdout());
+    }
+    fn frame_started(&self, frame: u32, index: usize, count: usize) {
+        self.last_decile
+            .store(0, std::sync::atomic::Ordering::Relaxed);
+        if let Ok(mut f) = self.frame.lock() {
+            *f = format!("frame {frame} ({}/{count}): ", index + 1);
+        }
+    }
+    fn frame_done(&self, frame: u32, outcome: &vdbphoton::frames::FrameOutcome, seconds: f64) {
+        use vdbphoton::frames::FrameOutcome;
+        self.end_bar();
+        match outcome {
+            FrameOutcome::Written(s) => {
+                eprintln!("frame {frame}: {} ({seconds:.2} s)", summary_line(s))
+            }
+            FrameOutcome::Skipped(p) => {
+                eprintln!("frame {frame}: skipped, '{}' exists", p.display())
+            }
+            FrameOutcome::Failed(e) => {
+                eprintln!("vdbphoton: error: frame {frame}: {}", one_line(e))
+            }
+        }
+    }
+}
+
+impl CliReporter {
+    /// Ends a progress bar's line before other output.
+    fn end_bar(&self) {
+        if self.tty && !self.quiet {
+            eprint!("\r\x1b[K");
+        }
+    }
+}
+
+fn summary_line(s: &vdbphoton::render::Summary) -> String {
+    format!(
+        "rendered {} x {} with {} ({} passes, {} spp) in {:.2} s  (load {:.2} s, write {:.2} s, {} threads)",
+        s.width,
+        s.height,
+        s.integrator,
+        s.passes,
+        s.spp,
+        s.render_seconds,
+        s.load_seconds,
+        s.write_seconds,
+        s.threads
+    )
+}
+
+fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
     use std::io::IsTerminal;
-    use vdbphoton::render::{render_scene, Progress, RenderOptions, Reporter};
+    use vdbphoton::frames::{render_job, FrameJob, FrameOutcome};
+    use vdbphoton::render::RenderOptions;
     use vdbphoton::scene::SceneDesc;
     let t_start = Instant::now();
-    let mut desc = SceneDesc::load(&a.scene)?;
+    let reporter = CliReporter {
+        quiet: a.quiet,
+        tty: std::io::stderr().is_terminal(),
+        last_decile: std::sync::atomic::AtomicUsize::new(0),
+        throttle: vdbphoton::render::Throttle::new(std::time::Duration::from_millis(200)),
+        frame: std::sync::Mutex::new(String::new()),
+    };
+    let quick_look = quick_look || vdbphoton::quicklook::is_vdb(&a.scene);
+    let mut desc = if quick_look {
+        let (desc, notes) = vdbphoton::quicklook::scene_for(&a.scene)?;
+        if !a.quiet {
+            for n in notes {
+                eprintln!("quick look: {n}");
+            }
+        }
+        desc
+    } else {
+        SceneDesc::load(&a.scene)?
+    };
     let r = &mut desc.render;
     // Command-line paths are relative to the working directory.
     if let Some(o) = a.output {
@@ -417,93 +683,71 @@ fn render(a: RenderArgs) -> Result<()> {
             a.scene.display()
         ))
     })?;
-    struct Cli {
-        quiet: bool,
-        tty: bool,
-        last_decile: std::sync::atomic::AtomicUsize,
-        throttle: vdbphoton::render::Throttle,
-    }
-    impl Reporter for Cli {
-        fn warning(&self, m: &str) {
-            eprintln!("vdbphoton: warning: {m}");
-        }
-        fn progress(&self, p: Progress) {
-            if self.quiet {
-                return;
-            }
-            let eta = p.eta.map_or("?".to_string(), |e| format!("{e:.0}s"));
-            if self.tty {
-                if !self.throttle.ready(p.fraction >= 1.0) {
-                    return;
-                }
-                let n = ((p.fraction * 30.0) as usize).min(30);
-                eprint!(
-                    "\rrendering [{}{}] {:5.1}%  pass {}  {:.0}s elapsed, ETA {eta} ",
-                    "#".repeat(n),
-                    " ".repeat(30 - n),
-                    p.fraction * 100.0,
-                    p.passes + 1,
-                    p.elapsed
-                );
-            } else {
-                let decile = (p.fraction * 10.0) as usize;
-                if decile
-                    > self
-                        .last_decile
-                        .fetch_max(decile, std::sync::atomic::Ordering::Relaxed)
-                {
-                    eprintln!(
-                        "rendering: {:3.0}% ({:.1} s elapsed, ETA {eta})",
-                        decile as f64 * 10.0,
-                        p.elapsed
-                    );
-                }
-            }
-        }
-        fn checkpoint(&self, path: &std::path::Path, passes: u32) {
-            if !self.quiet {
-                if self.tty {
-                    eprintln!();
-                }
-                eprintln!("checkpoint: {} after {passes} passes", path.display());
-            }
-        }
-    }
-    let reporter = Cli {
-        quiet: a.quiet,
-        tty: std::io::stderr().is_terminal(),
-        last_decile: std::sync::atomic::AtomicUsize::new(0),
-        throttle: vdbphoton::render::Throttle::new(std::time::Duration::from_millis(200)),
-    };
+    let region = a
+        .region
+        .as_deref()
+        .map(|s| {
+            vdbphoton::film::Region::parse(s, desc.render.width, desc.render.height)
+                .map_err(Error::Argument)
+        })
+        .transpose()?;
     let opts = RenderOptions {
-        threads: a.threads,
+        threads: a.threads.map(|t| t as usize),
         time_limit: a.time,
         checkpoint: a.checkpoint,
         max_memory: a.max_memory,
         attributes: vec![("vdbphoton/scene".to_string(), a.scene.display().to_string())],
+        region,
+        tile: a.tile,
+        view: a.view.unwrap_or_default(),
     };
-    let s = render_scene(&desc, &opts, &reporter)?;
-    if reporter.tty && !a.quiet {
-        eprintln!();
-    }
-    for p in &s.outputs {
-        println!("Saved: '{}'", p.display());
-    }
+    let job = FrameJob {
+        frames: a.frames.map(|f| f.0).or(a.frame.map(|f| vec![f])),
+        skip_existing: a.skip_existing,
+    };
+    let report = render_job(&desc, &job, &opts, &reporter).map_err(|e| {
+        // Errors about the scene's inputs say which scene.
+        match e {
+            e @ (Error::Scene(_) | Error::Interrupted { .. } | Error::Argument(_)) => e,
+            e if quick_look => e,
+            e => e.context(a.scene.display().to_string()),
+        }
+    })?;
     // The summary is printed even with --quiet: it is the line a farm log
     // wants.
-    eprintln!(
-        "rendered {} x {} with {} ({} passes, {} spp) in {:.2} s  (load {:.2} s, write {:.2} s, total {:.2} s, {} threads)",
-        s.width,
-        s.height,
-        s.integrator,
-        s.passes,
-        s.spp,
-        s.render_seconds,
-        s.load_seconds,
-        s.write_seconds,
-        t_start.elapsed().as_secs_f64(),
-        s.threads
-    );
+    let total = t_start.elapsed().as_secs_f64();
+    match report.frames.as_slice() {
+        [(None, FrameOutcome::Written(s))] => {
+            eprintln!("{} (total {total:.2} s)", summary_line(s))
+        }
+        [(None, FrameOutcome::Skipped(p))] => {
+            eprintln!("skipped: '{}' exists", p.display())
+        }
+        frames => {
+            let count = |f: fn(&FrameOutcome) -> bool| frames.iter().filter(|(_, o)| f(o)).count();
+            let written = count(|o| matches!(o, FrameOutcome::Written(_)));
+            let skipped = count(|o| matches!(o, FrameOutcome::Skipped(_)));
+            let failed = report.failed();
+            eprintln!(
+                "frames: {written} written, {skipped} skipped, {} failed{} in {total:.2} s",
+                failed.len(),
+                if failed.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", vdbphoton::sequence::format_frames(&failed))
+                }
+            );
+        }
+    }
+    if !report.ok() {
+        let failed = report.failed();
+        return Err(Error::Argument(format!(
+            "{} of {} frames failed: {}",
+            failed.len(),
+            report.frames.len(),
+            vdbphoton::sequence::format_frames(&failed)
+        )));
+    }
     Ok(())
 }
 
@@ -567,12 +811,42 @@ fn export_vol(file: &std::path::Path, out: &std::path::Path, grid: &str) -> Resu
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Render(a) => render(a),
+        Command::Render(a) => render(a, false),
+        Command::View(a) => render(a, true),
+        Command::Merge {
+            out,
+            inputs,
+            preview,
+            exposure,
+            view,
+        } => {
+            let m = vdbphoton::merge::merge(&out, &inputs, preview.as_deref(), exposure, view)?;
+            for p in &m.outputs {
+                println!("Saved: '{}'", p.display());
+            }
+            let groups: Vec<String> = m
+                .groups
+                .iter()
+                .map(|(seed, n)| format!("{n} with seed {seed}"))
+                .collect();
+            eprintln!(
+                "merged {} inputs ({}) into {} x {}, {} spp",
+                inputs.len(),
+                groups.join(", "),
+                m.width,
+                m.height,
+                m.spp
+            );
+            Ok(())
+        }
         Command::ExportVol { file, out, grid } => export_vol(&file, &out, &grid),
         Command::Compare {
             image,
             reference,
             diff,
+            side_by_side,
+            exposure,
+            view,
         } => {
             let a = vdbphoton::image::read_exr_rgb(&image)?;
             let b = vdbphoton::image::read_exr_rgb(&reference)?;
@@ -588,9 +862,56 @@ fn run(cli: Cli) -> Result<()> {
                     d.display()
                 );
             }
+            if let Some(p) = side_by_side {
+                let name = |p: &std::path::Path| {
+                    p.file_name()
+                        .map_or(String::new(), |n| n.to_string_lossy().into_owned())
+                };
+                vdbphoton::image::write_side_by_side(
+                    &p,
+                    &a,
+                    &b,
+                    &name(&image),
+                    &name(&reference),
+                    &m,
+                    exposure,
+                    view,
+                )?;
+                eprintln!("wrote {}", p.display());
+            }
             Ok(())
         }
-        Command::Info { file, grid, json } => info(file, grid, json),
+        Command::Info { files, grid, json } => {
+            // Every file is shown; one that cannot be read is an error
+            // line, the others still print, and the exit code says so.
+            let mut failed = 0;
+            let mut out = Vec::new();
+            for f in &files {
+                match info(f, grid.clone(), json) {
+                    Ok(v) => out.push(v),
+                    Err(e) if files.len() > 1 => {
+                        eprintln!("vdbphoton: error: {}", one_line(&e));
+                        failed += 1;
+                    }
+                    Err(e) => return Err(e),
+                }
+            }
+            if json {
+                let v = if files.len() == 1 {
+                    out.pop().unwrap_or_default()
+                } else {
+                    serde_json::Value::Array(out)
+                };
+                println!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+            }
+            if failed > 0 {
+                return Err(Error::Argument(format!(
+                    "{failed} of {} files could not be read",
+                    files.len()
+                )));
+            }
+            Ok(())
+        }
         Command::Generate {
             kind,
             out,
@@ -618,7 +939,32 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            // One line, and the exit code of every other bad input.
+            let text = e.to_string();
+            let first = text
+                .lines()
+                .find(|l| !l.trim().is_empty())
+                .unwrap_or("invalid arguments");
+            eprintln!(
+                "vdbphoton: {} (see vdbphoton --help)",
+                first.trim_start_matches("error: ").trim()
+            );
+            return ExitCode::from(1);
+        }
+    };
     vdbphoton::interrupt::install();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

@@ -58,6 +58,14 @@ pub struct RenderOptions {
     /// available). A render that would need more is refused before it
     /// starts.
     pub max_memory: Option<u64>,
+    /// Render only these pixels (`--region`); the EXR's data window is the
+    /// region inside the whole image.
+    pub region: Option<Region>,
+    /// Render only tile `I` of `N` (`--tile I/N`, [`Region::tile`]);
+    /// `{tile}` in output paths becomes `I`.
+    pub tile: Option<(u32, u32)>,
+    /// The view transform of the PNG preview.
+    pub view: crate::image::View,
 }
 
 /// Bytes of memory the machine has available now (Linux's MemAvailable),
@@ -84,14 +92,24 @@ fn gib(b: u64) -> String {
     format!("{:.1} GiB", b as f64 / (1u64 << 30) as f64)
 }
 
+/// Images above this many pixels (16.8 M, eight 1920 x 1080 frames) get a
+/// word about their memory and work before they start.
+const LARGE_IMAGE_PIXELS: u64 = 1 << 24;
+
 /// Refuses a render that will not fit in `limit` bytes: film and images,
 /// the photon map of a pass, and the grids (when loaded).
-fn check_memory(desc: &SceneDesc, grids: u64, photon: bool, limit: Option<u64>) -> Result<()> {
+fn check_memory(
+    desc: &SceneDesc,
+    region: Region,
+    grids: u64,
+    photon: bool,
+    limit: Option<u64>,
+) -> Result<()> {
     let Some(limit) = limit.or_else(available_memory) else {
         return Ok(());
     };
     let r = &desc.render;
-    let pixels = r.width as u64 * r.height as u64;
+    let pixels = region.pixels() as u64;
     let film =
         Film::bytes_for(pixels as usize, r.aovs) as u64 + pixels * image_bytes_per_pixel(r.aovs);
     let photons = if photon {
@@ -102,11 +120,11 @@ fn check_memory(desc: &SceneDesc, grids: u64, photon: bool, limit: Option<u64>) 
     let need = film + photons + grids;
     if need > limit {
         return Err(Error::Argument(format!(
-            "the render needs about {} (film and images {} for {} x {}, photon map {}, grids {}) but {} {}; lower the image size or `photons`, or give --max-memory",
+            "the render needs about {} (film and images {} for {} x {} pixels, photon map {}, grids {}) but {} {}; lower the image size or `photons`, or give --max-memory",
             gib(need),
             gib(film),
-            r.width,
-            r.height,
+            region.width(),
+            region.height(),
             gib(photons),
             gib(grids),
             gib(limit),
@@ -137,6 +155,12 @@ pub trait Reporter: Sync {
     fn progress(&self, _p: Progress) {}
     /// A checkpoint was written.
     fn checkpoint(&self, _path: &Path, _passes: u32) {}
+    /// A finished render wrote this file (the EXR, then the preview).
+    fn saved(&self, _path: &Path) {}
+    /// Frame `frame`, the `index`-th of `count`, starts.
+    fn frame_started(&self, _frame: u32, _index: usize, _count: usize) {}
+    /// Frame `frame` ended after `seconds`.
+    fn frame_done(&self, _frame: u32, _outcome: &crate::frames::FrameOutcome, _seconds: f64) {}
 }
 
 /// A reporter that reports nothing.
@@ -260,6 +284,24 @@ pub fn make_integrator(desc: &SceneDesc, world: &World) -> Result<Box<dyn Integr
     })
 }
 
+/// A fingerprint of what a render shows: the scene with its seed, sample
+/// count and output names left out, so that tiles and renders with other
+/// seeds of one frame share it and `merge` can refuse parts of other
+/// scenes (FNV-1a over the description's debug text).
+pub fn scene_hash(desc: &SceneDesc) -> String {
+    let mut d = desc.clone();
+    d.render.seed = 0;
+    d.render.spp = 0;
+    d.render.output = PathBuf::new();
+    d.render.preview = None;
+    d.render.frames = None;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in format!("{d:?}").bytes() {
+        h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
 /// Header attributes of a render.
 fn attributes(
     desc: &SceneDesc,
@@ -275,6 +317,7 @@ fn attributes(
             "vdbphoton/version".to_string(),
             env!("CARGO_PKG_VERSION").to_string(),
         ),
+        ("vdbphoton/scene_hash".to_string(), scene_hash(desc)),
         (
             "vdbphoton/integrator".to_string(),
             integrator.name().to_string(),
@@ -305,13 +348,14 @@ fn write_outputs(
     desc: &SceneDesc,
     film: &Film,
     attrs: &[(String, String)],
+    view: crate::image::View,
 ) -> Result<Vec<PathBuf>> {
     let r = &desc.render;
     let image = film.to_image()?;
     crate::image::write_exr(&r.output, &image, attrs)?;
     let mut out = vec![r.output.clone()];
     if let Some(p) = &r.preview {
-        crate::image::write_png_preview(p, &image, r.exposure)?;
+        crate::image::write_png_preview(p, &image, r.exposure, view)?;
         out.push(p.clone());
     }
     Ok(out)
@@ -384,6 +428,32 @@ pub fn run_passes(
     }
 }
 
+/// The pixels a render covers: the whole image, `--region` or `--tile`.
+pub fn region_of(desc: &SceneDesc, opts: &RenderOptions) -> Result<Region> {
+    let (w, h) = (desc.render.width, desc.render.height);
+    match (opts.region, opts.tile) {
+        (Some(_), Some(_)) => Err(Error::Argument(
+            "give either --region or --tile, not both".into(),
+        )),
+        (Some(r), None) => {
+            if r.x0 >= r.x1 || r.y0 >= r.y1 || r.x1 > w || r.y1 > h {
+                return Err(Error::Argument(format!(
+                    "--region {r} is empty or reaches outside the {w} x {h} image"
+                )));
+            }
+            Ok(r)
+        }
+        (None, Some((i, n))) => Region::tile(i, n, w, h).ok_or_else(|| {
+            Error::Argument(if n == 0 || i >= n {
+                format!("--tile {i}/{n}: the tile must be 0 to {}", n.max(1) - 1)
+            } else {
+                format!("--tile {i}/{n}: a {w} x {h} image has too few pixels for {n} tiles")
+            })
+        }),
+        (None, None) => Ok(Region::full(w, h)),
+    }
+}
+
 /// Renders a validated scene to its outputs.
 pub fn render_scene(
     desc: &SceneDesc,
@@ -391,12 +461,33 @@ pub fn render_scene(
     reporter: &dyn Reporter,
 ) -> Result<Summary> {
     let r = &desc.render;
+    let region = region_of(desc, opts)?;
     prepare_outputs(&r.output, r.preview.as_deref())?;
     if opts.threads == Some(0) {
         return Err(Error::Argument("--threads must be at least 1".into()));
     }
     let wants_photons = r.integrator != IntegratorChoice::Path;
-    check_memory(desc, 0, wants_photons, opts.max_memory)?;
+    check_memory(desc, region, 0, wants_photons, opts.max_memory)?;
+    if region.pixels() as u64 > LARGE_IMAGE_PIXELS {
+        let film = Film::bytes_for(region.pixels(), r.aovs) as u64
+            + region.pixels() as u64 * image_bytes_per_pixel(r.aovs);
+        reporter.warning(&format!(
+            "a large image: {} x {} pixels ({:.0} M), about {} for the film and images, and {:.0} times the work of a 1920 x 1080 frame",
+            region.width(),
+            region.height(),
+            region.pixels() as f64 / 1e6,
+            gib(film),
+            region.pixels() as f64 / (1920.0 * 1080.0)
+        ));
+    }
+    // The preview's settings travel with the image, so that `merge` shows
+    // merged tiles as the render would have.
+    let mut extra = opts.attributes.clone();
+    extra.push(("vdbphoton/exposure".into(), format!("{}", r.exposure)));
+    extra.push(("vdbphoton/view".into(), opts.view.name().into()));
+    if let Some((i, n)) = opts.tile {
+        extra.push(("vdbphoton/tile".into(), format!("{i}/{n}")));
+    }
     let run = || -> Result<Summary> {
         let world = World::load(desc)?;
         let grids: u64 = world
@@ -405,12 +496,11 @@ pub fn render_scene(
             .iter()
             .map(|v| v.memory_bytes() as u64)
             .sum();
-        check_memory(desc, grids, wants_photons, opts.max_memory)?;
+        check_memory(desc, region, grids, wants_photons, opts.max_memory)?;
         for w in &world.warnings {
             reporter.warning(w);
         }
         let mut integrator = make_integrator(desc, &world)?;
-        let region = Region::full(r.width, r.height);
         let mut film = Film::new(r.width, r.height, region, r.aovs);
         let per_pass = integrator.samples_per_pass().max(1);
         let stop = match opts.time_limit {
@@ -439,9 +529,9 @@ pub fn render_scene(
                     passes,
                     passes * per_pass,
                     t0.elapsed().as_secs_f64(),
-                    &opts.attributes,
+                    &extra,
                 );
-                write_outputs(desc, film, &attrs)?;
+                write_outputs(desc, film, &attrs, opts.view)?;
                 reporter.checkpoint(&r.output, passes);
                 last_checkpoint = Instant::now();
                 Ok(())
@@ -456,9 +546,12 @@ pub fn render_scene(
             passes,
             spp,
             render_seconds,
-            &opts.attributes,
+            &extra,
         );
-        let outputs = write_outputs(desc, &film, &attrs)?;
+        let outputs = write_outputs(desc, &film, &attrs, opts.view)?;
+        for p in &outputs {
+            reporter.saved(p);
+        }
         Ok(Summary {
             integrator: integrator.name(),
             passes,

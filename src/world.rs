@@ -1,13 +1,17 @@
 //! The world a render sees: a scene description (`crate::scene`, the only
 //! serde user) turned into loaded volumes, lights and a camera.
 
-use crate::camera::Camera;
+use crate::camera::{Camera, Plane};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::light::{EnvMap, Environment, Light};
 use crate::medium::{ExtraGrids, Material, Media, Volume};
-use crate::scene::{EnvironmentDesc, LightDesc, SceneDesc, VolumeDesc};
+use crate::scene::{
+    CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, SceneDesc,
+    VolumeBounds, VolumeDesc,
+};
 use crate::vdb::VdbFile;
+use glam::{DAffine3, DVec3, Vec2};
 use std::time::Instant;
 
 pub struct World {
@@ -33,7 +37,145 @@ fn read_scalar(f: &VdbFile, name: &str) -> Result<Grid<f32>> {
     Ok(g)
 }
 
-fn load_volume(v: &VolumeDesc, warnings: &mut Vec<String>) -> Result<Option<Volume>> {
+/// A box `[min, max]` in world space.
+pub type WorldBox = [DVec3; 2];
+
+/// The axis-aligned box around `t` applied to the box `[lo, hi]`.
+fn transform_box(t: &DAffine3, lo: DVec3, hi: DVec3) -> WorldBox {
+    let mut out = [DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)];
+    for i in 0..8 {
+        let c = DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let w = t.transform_point3(c);
+        out = [out[0].min(w), out[1].max(w)];
+    }
+    out
+}
+
+/// The box (in the file's world space, before a scene transform) of a
+/// grid's voxels `[lo, hi]` (index, inclusive): voxel centres are the
+/// indices, so the box reaches half a voxel beyond them.
+pub fn index_box(info: &crate::vdb::GridInfo, lo: DVec3, hi: DVec3) -> WorldBox {
+    let m = &info.world_from_index;
+    let t = DAffine3::from_cols_array(&[
+        m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10], m[3], m[7], m[11],
+    ]);
+    transform_box(&t, lo - 0.5, hi + 0.5)
+}
+
+/// The active box of grid `grid` of `f` in the file's world space, from the
+/// grid's header (no voxels are read); `None` when it is empty.
+fn active_file_box(f: &VdbFile, grid: &str) -> Result<Option<WorldBox>> {
+    let info = f.info()?;
+    let Some(g) = info.grids.iter().find(|g| g.name == grid) else {
+        // A missing grid gets its message from the grid reader.
+        f.descriptor(grid)?;
+        return Ok(None);
+    };
+    if g.empty {
+        return Ok(None);
+    }
+    let lo = DVec3::from(g.bbox_min.map(f64::from));
+    let hi = DVec3::from(g.bbox_max.map(f64::from));
+    Ok(Some(index_box(g, lo, hi)))
+}
+
+/// The fluid domain's box in the file's world space: Blender's Mantaflow
+/// writes the domain's resolution as `file_base_resolution`, with index
+/// (0,0,0) at the domain's corner.
+fn domain_file_box(f: &VdbFile, grid: &str) -> Result<WorldBox> {
+    let info = f.info()?;
+    let g = info.grids.iter().find(|g| g.name == grid);
+    let res = g.and_then(|g| {
+        let m = g
+            .metadata
+            .iter()
+            .find(|m| m.name == "file_base_resolution")?;
+        let v: Vec<f64> = m
+            .value
+            .trim_matches(|c| c == '[' || c == ']')
+            .split(',')
+            .map(|x| x.trim().parse().ok())
+            .collect::<Option<_>>()?;
+        (v.len() == 3 && v.iter().all(|&x| x >= 1.0)).then(|| DVec3::new(v[0], v[1], v[2]))
+    });
+    match (g, res) {
+        (Some(g), Some(res)) => Ok(index_box(g, DVec3::ZERO, res - 1.0)),
+        _ => Err(Error::grid(
+            f.path(),
+            grid,
+            "bounds = \"domain\" needs the fluid domain's resolution (the `file_base_resolution` metadata Blender writes), which this grid does not have; give the domain's box as bounds = [[x0, y0, z0], [x1, y1, z1]] instead",
+        )),
+    }
+}
+
+/// The union of the active boxes (file space) of every frame of `v`'s
+/// sequence whose file exists, read from the files' headers: the box that
+/// keeps automatic framing fixed over the sequence (`bounds =
+/// "sequence"`). `None` when no frame has active voxels. A frame that
+/// cannot be read is left out here: its own render says what is wrong
+/// with it.
+pub fn sequence_file_box(pattern: &crate::sequence::PathPattern, grid: &str) -> Option<WorldBox> {
+    let mut out: Option<WorldBox> = None;
+    for frame in pattern.existing_frames() {
+        let Ok(f) = VdbFile::open(pattern.expand(Some(frame), None)) else {
+            continue;
+        };
+        if let Ok(Some([lo, hi])) = active_file_box(&f, grid) {
+            out = Some(match out {
+                Some([a, b]) => [a.min(lo), b.max(hi)],
+                None => [lo, hi],
+            });
+        }
+    }
+    out
+}
+
+/// Grids a volume names that cannot change its image under its material,
+/// each with why (a user who names a grid expects it to matter).
+pub fn idle_grids(v: &VolumeDesc) -> Vec<String> {
+    let mut out = Vec::new();
+    let named = [
+        ("temperature_grid", &v.temperature_grid),
+        ("flame_grid", &v.flame_grid),
+        ("color_grid", &v.color_grid),
+    ];
+    match &v.material {
+        MaterialDesc::Raw { .. } => {
+            for (key, grid) in named {
+                if let Some(g) = grid {
+                    out.push(format!(
+                        "{key} '{g}' has no effect: a raw material (sigma_a/sigma_s/emission) uses the density grid only"
+                    ));
+                }
+            }
+        }
+        MaterialDesc::Principled(p) => {
+            if let (Some(g), true) = (&v.temperature_grid, p.blackbody_intensity == 0.0) {
+                out.push(format!(
+                    "temperature_grid '{g}' has no effect: blackbody_intensity is 0"
+                ));
+            }
+            if let (Some(g), true) = (&v.flame_grid, p.emission_strength == 0.0) {
+                out.push(format!(
+                    "flame_grid '{g}' has no effect: it scales emission_strength, which is 0 (Blender's Quick Smoke fire glows by temperature_grid and blackbody_intensity instead)"
+                ));
+            }
+        }
+    }
+    out
+}
+
+fn load_volume(
+    v: &VolumeDesc,
+    warnings: &mut Vec<String>,
+) -> Result<(Option<Volume>, Option<WorldBox>)> {
+    for w in idle_grids(v) {
+        warnings.push(format!("'{}': {w}", v.file.display()));
+    }
     let f = VdbFile::open(&v.file)?;
     let density = read_scalar(&f, &v.density_grid)?;
     if let Some([lo, _]) = density.value_range() {
@@ -86,7 +228,114 @@ fn load_volume(v: &VolumeDesc, warnings: &mut Vec<String>) -> Result<Option<Volu
             v.density_grid
         ));
     }
-    Ok(vol)
+    let file_box = match v.bounds {
+        VolumeBounds::Box([lo, hi]) => Some([lo, hi]),
+        VolumeBounds::Domain => Some(domain_file_box(&f, &v.density_grid)?),
+        // A sequence's box is found before its frames are rendered
+        // (`crate::frames`); a single file has only its own.
+        VolumeBounds::Active | VolumeBounds::Sequence => None,
+    };
+    let world_box = match (file_box, &vol) {
+        (Some([lo, hi]), _) => Some(transform_box(&v.transform, lo, hi)),
+        (None, Some(vol)) => {
+            let (lo, hi) = vol.world_bounds();
+            Some([lo.as_dvec3(), hi.as_dvec3()])
+        }
+        (None, None) => None,
+    };
+    Ok((vol, world_box))
+}
+
+/// The camera a scene describes; `boxes` are the volumes' world boxes
+/// for automatic framing.
+pub fn make_camera(c: &CameraDesc, width: u32, height: u32, boxes: &[WorldBox]) -> Result<Camera> {
+    let shift = Vec2::from(c.shift);
+    let plane = match c.lens {
+        // A vertical field of view fits the height: shift is a fraction of
+        // it.
+        Lens::Vfov(v) => {
+            let p = Plane::vfov(v, width, height);
+            Plane {
+                shift_x: shift.x * 2.0 * p.tan_half_y,
+                shift_y: shift.y * 2.0 * p.tan_half_y,
+                ..p
+            }
+        }
+        Lens::Sensor {
+            focal_length,
+            sensor_width,
+            sensor_height,
+            fit,
+        } => Plane::sensor(
+            focal_length,
+            Vec2::new(sensor_width, sensor_height),
+            fit,
+            shift,
+            width,
+            height,
+        ),
+    };
+    Ok(match c.pose {
+        CameraPose::LookAt {
+            position,
+            look_at,
+            up,
+        } => Camera::with_frame(position, look_at - position, up, plane, width, height),
+        CameraPose::Matrix(m) => Camera::with_frame(
+            m.translation.as_vec3(),
+            -m.matrix3.z_axis.as_vec3(),
+            m.matrix3.y_axis.as_vec3(),
+            plane,
+            width,
+            height,
+        ),
+        CameraPose::Auto { direction, up } => {
+            let Some([lo, hi]) = boxes
+                .iter()
+                .copied()
+                .reduce(|[a, b], [c, d]| [a.min(c), b.max(d)])
+            else {
+                return Err(Error::Argument(
+                    "[camera] framing = \"auto\": no volume has voxels to frame".into(),
+                ));
+            };
+            // Aim at the boxes' centre, from far enough that every corner
+            // is inside the view with 5 % to spare on the tighter side.
+            let centre = (lo + hi) * 0.5;
+            let dir = direction.as_dvec3().normalize();
+            let forward = -dir;
+            let right = forward.cross(up.as_dvec3()).normalize();
+            let cam_up = right.cross(forward);
+            let (tx, ty) = (
+                0.95 * plane.tan_half_x as f64,
+                0.95 * plane.tan_half_y as f64,
+            );
+            let mut distance: f64 = 1e-6;
+            for i in 0..8 {
+                let corner = DVec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                let q = corner - centre;
+                let (u, v, w) = (q.dot(right), q.dot(cam_up), q.dot(forward));
+                // Depth of the corner is distance + w.
+                distance = distance
+                    .max(u.abs() / tx - w)
+                    .max(v.abs() / ty - w)
+                    .max(1e-3 - w);
+            }
+            let position = centre + dir * distance;
+            Camera::with_frame(
+                position.as_vec3(),
+                (-dir).as_vec3(),
+                up,
+                plane,
+                width,
+                height,
+            )
+        }
+    })
 }
 
 /// The largest optical depth a single voxel may have. Light does not cross
@@ -122,10 +371,12 @@ impl World {
         let t0 = Instant::now();
         let mut warnings = Vec::new();
         let mut volumes = Vec::new();
-        for v in &desc.volumes {
-            if let Some(vol) = load_volume(v, &mut warnings)? {
-                volumes.push(vol);
-            }
+        let mut boxes = Vec::new();
+        for (i, v) in desc.volumes.iter().enumerate() {
+            let (vol, world_box) = load_volume(v, &mut warnings)
+                .map_err(|e| e.context(format!("[[volume]] {}", i + 1)))?;
+            volumes.extend(vol);
+            boxes.extend(world_box);
         }
         let lights = desc
             .lights
@@ -172,7 +423,7 @@ impl World {
         let r = &desc.render;
         let c = &desc.camera;
         Ok(World {
-            camera: Camera::new(c.position, c.look_at, c.up, c.vfov_deg, r.width, r.height),
+            camera: make_camera(c, r.width, r.height, &boxes)?,
             lights,
             environment,
             media: Media::new(volumes),

@@ -12,7 +12,7 @@ use exr::prelude::{
 use glam::{Vec3, Vec4};
 use vdbphoton::image::{
     compare, read_exr_rgb, write_diff_png, write_exr, write_png_preview, Image, ImageError,
-    ImageRgb,
+    ImageRgb, View,
 };
 use vdbphoton::Rgb;
 
@@ -170,7 +170,7 @@ fn write_into_missing_directory_names_the_path_and_leaves_nothing() {
         let err = if name.ends_with("exr") {
             write_exr(&path, &image, &[]).unwrap_err()
         } else {
-            write_png_preview(&path, &image, 0.0).unwrap_err()
+            write_png_preview(&path, &image, 0.0, View::Standard).unwrap_err()
         };
         assert!(matches!(err, ImageError::Write { .. }), "{err:?}");
         assert_eq!(
@@ -197,7 +197,7 @@ fn failing_write_leaves_no_temporary_behind() {
         let err = if name.ends_with("exr") {
             write_exr(&target, &image, &[]).unwrap_err()
         } else {
-            write_png_preview(&target, &image, 0.0).unwrap_err()
+            write_png_preview(&target, &image, 0.0, View::Standard).unwrap_err()
         };
         let msg = err.to_string();
         assert!(
@@ -465,7 +465,7 @@ fn png_preview_is_8bit_srgb() {
     }
     image.set(0, 1, Vec4::new(1.0, 0.5, 0.0, 0.3));
     let path = dir.path().join("p.png");
-    write_png_preview(&path, &image, 0.0).unwrap();
+    write_png_preview(&path, &image, 0.0, View::Standard).unwrap();
     let (info, buf, srgb) = decode_png(&path);
     assert_eq!((info.width, info.height), (8, 2));
     assert_eq!(info.color_type, png::ColorType::Rgb);
@@ -477,12 +477,12 @@ fn png_preview_is_8bit_srgb() {
     assert_eq!(&buf[24..27], &[255, 188, 0]);
 
     // Exposure +1 doubles: 0.25 -> like 0.5, 0.5 -> like 1.0.
-    write_png_preview(&path, &image, 1.0).unwrap();
+    write_png_preview(&path, &image, 1.0, View::Standard).unwrap();
     let (_, buf, _) = decode_png(&path);
     let row0: Vec<u8> = buf[..24].iter().step_by(3).copied().collect();
     assert_eq!(row0, vec![0, 18, 255, 255, 188, 255, 0, 0]);
     // Exposure -1 halves: 1.0 -> like 0.5.
-    write_png_preview(&path, &image, -1.0).unwrap();
+    write_png_preview(&path, &image, -1.0, View::Standard).unwrap();
     let (_, buf, _) = decode_png(&path);
     assert_eq!(buf[9], 188);
     assert_eq!(common::dir_entries(dir.path()), vec!["p.png"]);

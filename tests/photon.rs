@@ -401,3 +401,14 @@ fn same_image_on_one_and_two_threads() {
     assert!(a == b, "the films differ between one and two threads");
     assert!(mean(&a.mean_rgb()) > 0.0);
 }
+
+#[test]
+fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
+    use vdbphoton::render::choose_integrator;
+    use vdbphoton::scene::Integrator as Choice;
+    let sun = || vec![Light::sun(Vec3::Z, Rgb::ONE, 0.0)];
+    let thick = world(vec![cloud(raw(0.2, 15.0, 0.3))], sun(), Rgb::ZERO);
+    let thin = world(vec![cloud(raw(0.05, 0.3, 0.3))], sun(), Rgb::ZERO);
+    assert_eq!(choose_integrator(&thick).0, Choice::Photon);
+    assert_eq!(choose_integrator(&thin).0, Choice::Path);
+}

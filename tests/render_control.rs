@@ -65,8 +65,9 @@ fn time_budget_and_photon_header() {
     // Bad durations are one clear line each.
     for bad in ["0", "-3s", "ten", "5x"] {
         let (code, _, err) = render(&[&format!("{SCENES}/cloud.toml"), &format!("--time={bad}")]);
-        assert_eq!(code, 2, "{bad}: {err}");
+        assert_eq!(code, 1, "{bad}: {err}");
         assert!(err.contains("duration"), "{bad}: {err}");
+        assert_eq!(err.lines().count(), 1, "{bad}: {err}");
     }
 }
 
@@ -209,6 +210,7 @@ fn a_render_that_will_not_fit_is_refused_before_it_starts() {
     );
     assert!(common::dir_entries(dir.path()).is_empty());
     let (code, _, err) = render(&[&format!("{SCENES}/cloud.toml"), "--max-memory", "lots"]);
-    assert_eq!(code, 2);
+    assert_eq!(code, 1);
     assert!(err.contains("amount of memory"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
 }

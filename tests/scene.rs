@@ -2,8 +2,8 @@ use std::path::{Path, PathBuf};
 
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use vdbphoton::scene::{
-    CameraDesc, EnvironmentDesc, Estimate, Integrator, LightDesc, MaterialDesc, PathSeg, PhaseDesc,
-    PhotonSettings, Principled, RenderDesc, SceneDesc, SceneError, SceneFormat,
+    CameraDesc, CameraPose, EnvironmentDesc, Estimate, Integrator, Lens, LightDesc, MaterialDesc,
+    PathSeg, PhaseDesc, PhotonSettings, Principled, RenderDesc, SceneDesc, SceneError, SceneFormat,
 };
 
 const VOL: &str = "[[volume]]\nfile = \"a.vdb\"\n";
@@ -53,10 +53,13 @@ fn reference_scene() {
     assert_eq!(
         scene.camera,
         CameraDesc {
-            position: Vec3::new(3.2, -2.8, 1.4),
-            look_at: Vec3::ZERO,
-            up: Vec3::Z,
-            vfov_deg: 38.0,
+            pose: CameraPose::LookAt {
+                position: Vec3::new(3.2, -2.8, 1.4),
+                look_at: Vec3::ZERO,
+                up: Vec3::Z,
+            },
+            lens: Lens::Vfov(38.0),
+            shift: [0.0, 0.0],
         }
     );
     assert_eq!(
@@ -116,12 +119,18 @@ fn defaults_when_keys_are_absent() {
             preview: None,
             exposure: 0.0,
             aovs: false,
+            frames: None,
         }
     );
-    assert_eq!(scene.camera.position, Vec3::new(0.0, -4.5, 0.6));
-    assert_eq!(scene.camera.look_at, Vec3::ZERO);
-    assert_eq!(scene.camera.up, Vec3::Z);
-    assert_eq!(scene.camera.vfov_deg, 40.0);
+    assert_eq!(
+        scene.camera.pose,
+        CameraPose::LookAt {
+            position: Vec3::new(0.0, -4.5, 0.6),
+            look_at: Vec3::ZERO,
+            up: Vec3::Z
+        }
+    );
+    assert_eq!(scene.camera.lens, Lens::Vfov(40.0));
     assert!(scene.lights.is_empty());
     assert_eq!(scene.environment, EnvironmentDesc::Constant(Vec3::ZERO));
     let v = volume0(&scene);
@@ -751,7 +760,7 @@ fn unknown_key_in_toml_names_key_and_line() {
     assert_eq!(
         toml_err(&text),
         "scene.toml:6: unknown key 'densty' in [[volume]] (expected one of: file, density_grid, \
-         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material)"
+         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds)"
     );
     let text = format!("{VOL}[volume.material]\n\ndensity = 1\nanisotropi = 0.5\n");
     let msg = toml_err(&text);
@@ -763,12 +772,12 @@ fn unknown_key_in_toml_names_key_and_line() {
     );
     assert_eq!(
         toml_err(&format!("{VOL}material = {{ phase = {{ type = \"hg\", gg = 1 }} }}\n")),
-        "scene.toml:3: unknown key 'phase.gg' in [volume.material] (expected one of: type, g, lobes)"
+        "scene.toml:3: unknown key 'phase.gg' in [volume.material] (expected one of: type, g, lobes; did you mean 'g'?)"
     );
     assert_eq!(
         toml_err(&format!("lights = 1\n{VOL}")),
         "scene.toml:1: unknown key 'lights' at top level (expected one of: render, camera, light, \
-         environment, volume)"
+         environment, volume; did you mean 'light'?)"
     );
 }
 
@@ -777,11 +786,13 @@ fn unknown_key_in_json_names_key_and_line() {
     assert_eq!(
         err(json("{\n  \"render\": {\"width\": 8},\n  \"volume\": [\n    {\"file\": \"a\", \"densty\": 1}\n  ]\n}")),
         "scene.json:4: unknown key 'densty' in [[volume]] (expected one of: file, density_grid, \
-         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material)"
+         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds)"
     );
     assert_eq!(
         err(json("{\"volume\": [{\"file\": \"a\"}],\n \"camera\": {\"fov\": 3}}")),
-        "scene.json:2: unknown key 'fov' in [camera] (expected one of: position, look_at, up, vfov)"
+        "scene.json:2: unknown key 'fov' in [camera] (expected one of: position, look_at, up, vfov, \
+         focal_length, sensor_width, sensor_height, sensor_fit, shift_x, shift_y, matrix, location, \
+         rotation, framing, direction; did you mean 'vfov'?)"
     );
 }
 

@@ -125,13 +125,22 @@ pub fn write_exr(
         }
     }
 
+    let (ox, oy) = image.origin();
+    let (dw, dh) = image.display_size();
+    if dw > i32::MAX as usize / 2 || dh > i32::MAX as usize / 2 {
+        return Err(encode_err(path, "the image is too large for OpenEXR"));
+    }
+    layer_attributes.layer_position = exr::math::Vec2(ox as i32, oy as i32);
     let exr_layer = exr::image::Layer::new(
         (image.width(), image.height()),
         layer_attributes,
         ENCODING,
         AnyChannels::sort(channels),
     );
-    let exr_image = exr::image::Image::from_layer(exr_layer);
+    let mut exr_image = exr::image::Image::from_layer(exr_layer);
+    // The data window is this image; the display window the whole frame.
+    exr_image.attributes.display_window =
+        exr::meta::attribute::IntegerBounds::new((0, 0), (dw, dh));
 
     write_atomically(path, |writer| {
         exr_image.write().to_buffered(writer).map_err(|e| match e {
@@ -163,6 +172,11 @@ fn read_err(path: &Path, error: exr::error::Error) -> ImageError {
         },
     }
 }
+
+/// The most pixels a display window read back may have (2^27, the most a
+/// render may have): a header can claim any size, and the image is
+/// allocated at that size before any pixel is read.
+const MAX_READ_PIXELS: usize = 1 << 27;
 
 /// The OpenEXR magic number, the first four bytes of every EXR file.
 const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
@@ -211,21 +225,11 @@ fn sample_f32(samples: &FlatSamples, i: usize) -> f32 {
     }
 }
 
-/// Read the first RGB(A) layer of any OpenEXR file (alpha and other channels
-/// are ignored): `half`, `float` or `uint` samples, any compression the exr
-/// crate decodes (none, RLE, ZIP, PIZ, PXR24, B44, DWA), scan lines or tiles
-/// (largest mip level). Used for reference images and environment maps.
-///
-/// The returned image covers the file's display window; pixels of it outside
-/// the data window are zero. "First RGB layer": the first part (in file
-/// order) with channels `R`, `G`, `B`, preferring unprefixed names, otherwise
-/// the first `<layer>.R/G/B` group, e.g. `ViewLayer.Combined.R`.
-///
-/// Errors (never panics): unreadable file, not an EXR ("is not an OpenEXR
-/// file"), damaged or truncated, unsupported feature (deep data, subsampled
-/// RGB), no RGB channels (the message lists the channels found).
-pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<ImageRgb, ImageError> {
-    let path = path.as_ref();
+type Decoded = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
+
+/// Decodes any OpenEXR file (largest resolution level, all channels and
+/// attributes), refusing what is not one with one line naming it.
+fn decode(path: &Path) -> Result<Decoded, ImageError> {
     let read_io = |source: std::io::Error| ImageError::Read {
         path: path.to_path_buf(),
         source,
@@ -265,16 +269,32 @@ pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<ImageRgb, ImageError> {
             .all_attributes()
             .from_buffered(BufReader::new(file))
     }));
-    let exr_image = match decoded {
-        Ok(Ok(image)) => image,
-        Ok(Err(e)) => return Err(read_err(path, e)),
-        Err(_) => {
-            return Err(ImageError::CorruptExr {
-                path: path.to_path_buf(),
-                reason: "the decoder failed on malformed data".into(),
-            })
-        }
-    };
+    match decoded {
+        Ok(Ok(image)) => Ok(image),
+        Ok(Err(e)) => Err(read_err(path, e)),
+        Err(_) => Err(ImageError::CorruptExr {
+            path: path.to_path_buf(),
+            reason: "the decoder failed on malformed data".into(),
+        }),
+    }
+}
+
+/// Read the first RGB(A) layer of any OpenEXR file (alpha and other channels
+/// are ignored): `half`, `float` or `uint` samples, any compression the exr
+/// crate decodes (none, RLE, ZIP, PIZ, PXR24, B44, DWA), scan lines or tiles
+/// (largest mip level). Used for reference images and environment maps.
+///
+/// The returned image covers the file's display window; pixels of it outside
+/// the data window are zero. "First RGB layer": the first part (in file
+/// order) with channels `R`, `G`, `B`, preferring unprefixed names, otherwise
+/// the first `<layer>.R/G/B` group, e.g. `ViewLayer.Combined.R`.
+///
+/// Errors (never panics): unreadable file, not an EXR ("is not an OpenEXR
+/// file"), damaged or truncated, unsupported feature (deep data, subsampled
+/// RGB), no RGB channels (the message lists the channels found).
+pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<ImageRgb, ImageError> {
+    let path = path.as_ref();
+    let exr_image = decode(path)?;
 
     let layers = &exr_image.layer_data;
     let Some((li, rgb)) = find_rgb(layers) else {
@@ -335,9 +355,12 @@ pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<ImageRgb, ImageError> {
     }
     let n = width
         .checked_mul(height)
+        .filter(|&n| n <= MAX_READ_PIXELS)
         .ok_or_else(|| ImageError::CorruptExr {
             path: path.to_path_buf(),
-            reason: "the display window is too large".into(),
+            reason: format!(
+                "the display window of {width}x{height} pixels is larger than {MAX_READ_PIXELS} pixels"
+            ),
         })?;
 
     let mut pixels = vec![Rgb::ZERO; n];
@@ -367,4 +390,129 @@ pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<ImageRgb, ImageError> {
         height,
         pixels,
     })
+}
+
+/// Reads back an EXR as [`write_exr`] writes it: the main layer's `R`, `G`,
+/// `B` (and `A`, 1 when absent), every `layer.channel` group as an AOV
+/// layer, the data window inside the display window
+/// ([`Image::origin`], [`Image::display_size`]) and the header's string
+/// attributes (OpenEXR's own attributes left out). Used to merge tiles and
+/// renders; other layouts are refused with a message naming the channels.
+pub fn read_exr(path: impl AsRef<Path>) -> Result<(Image, Vec<(String, String)>), ImageError> {
+    let path = path.as_ref();
+    let exr_image = decode(path)?;
+    let corrupt = |reason: String| ImageError::CorruptExr {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let Some(layer) = exr_image.layer_data.first() else {
+        return Err(corrupt("the file has no image part".into()));
+    };
+    if exr_image.layer_data.len() > 1 {
+        return Err(ImageError::UnsupportedExr {
+            path: path.to_path_buf(),
+            reason: "it has several parts; vdbphoton writes one".into(),
+        });
+    }
+    let (w, h) = (layer.size.x(), layer.size.y());
+    let n = w
+        .checked_mul(h)
+        .filter(|&n| n > 0 && n <= MAX_READ_PIXELS)
+        .ok_or_else(|| corrupt(format!("a data window of {w}x{h} pixels")))?;
+    let display = exr_image.attributes.display_window;
+    let (ox, oy) = (
+        layer.attributes.layer_position.x() as i64 - display.position.x() as i64,
+        layer.attributes.layer_position.y() as i64 - display.position.y() as i64,
+    );
+    let list = &layer.channel_data.list;
+    let channel = |name: &str| -> Result<Option<Vec<f32>>, ImageError> {
+        let Some(c) = list.iter().find(|c| c.name.to_string() == name) else {
+            return Ok(None);
+        };
+        if c.sampling.x() != 1 || c.sampling.y() != 1 {
+            return Err(ImageError::UnsupportedExr {
+                path: path.to_path_buf(),
+                reason: format!("channel '{name}' is subsampled"),
+            });
+        }
+        let v: Vec<f32> = (0..n).map(|i| sample_f32(&c.sample_data, i)).collect();
+        Ok(Some(v))
+    };
+    let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+    for c in list {
+        let len = match &c.sample_data {
+            FlatSamples::F16(v) => v.len(),
+            FlatSamples::F32(v) => v.len(),
+            FlatSamples::U32(v) => v.len(),
+        };
+        if len != n {
+            return Err(corrupt(format!(
+                "channel '{}' has {len} samples for {w}x{h} pixels",
+                c.name
+            )));
+        }
+    }
+    let (Some(r), Some(g), Some(b)) = (channel("R")?, channel("G")?, channel("B")?) else {
+        return Err(ImageError::NoRgbChannels {
+            path: path.to_path_buf(),
+            channels: names.join(", "),
+        });
+    };
+    let a = channel("A")?;
+    let pixels = (0..n)
+        .map(|i| glam::Vec4::new(r[i], g[i], b[i], a.as_ref().map_or(1.0, |a| a[i])))
+        .collect();
+    let mut image = Image::from_pixels(w, h, pixels)?;
+    // AOV layers: channels `layer.c`, in the order their first channel
+    // comes.
+    let mut layers: Vec<(String, Vec<String>)> = Vec::new();
+    for name in &names {
+        if let Some((l, c)) = name.rsplit_once('.') {
+            match layers.iter_mut().find(|(x, _)| x == l) {
+                Some((_, cs)) => cs.push(c.to_string()),
+                None => layers.push((l.to_string(), vec![c.to_string()])),
+            }
+        }
+    }
+    for (l, cs) in &layers {
+        let data: Vec<Vec<f32>> = cs
+            .iter()
+            .map(|c| channel(&format!("{l}.{c}")).map(|v| v.unwrap_or_default()))
+            .collect::<Result<_, _>>()?;
+        let refs: Vec<&str> = cs.iter().map(|c| c.as_str()).collect();
+        let layer = image
+            .add_layer(l, &refs)
+            .map_err(|_| ImageError::UnsupportedExr {
+                path: path.to_path_buf(),
+                reason: format!("layer '{l}' has names vdbphoton does not write"),
+            })?;
+        let k = cs.len();
+        for (ci, d) in data.iter().enumerate() {
+            for (i, v) in d.iter().enumerate() {
+                layer.data_mut()[i * k + ci] = *v;
+            }
+        }
+    }
+    let (dw, dh) = (display.size.x(), display.size.y());
+    if ox < 0 || oy < 0 {
+        return Err(corrupt(
+            "the data window starts outside the display window".into(),
+        ));
+    }
+    image
+        .set_window((ox as usize, oy as usize), (dw, dh))
+        .map_err(|_| corrupt("the data window lies outside the display window".into()))?;
+    let mut attributes: Vec<(String, String)> = exr_image
+        .attributes
+        .other
+        .iter()
+        .chain(layer.attributes.other.iter())
+        .filter_map(|(k, v)| match v {
+            AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    attributes.sort();
+    attributes.dedup();
+    Ok((image, attributes))
 }

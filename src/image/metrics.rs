@@ -117,6 +117,14 @@ pub fn write_diff_png(
     a: &ImageRgb,
     b: &ImageRgb,
 ) -> Result<f32, ImageError> {
+    let (rgb, scale) = diff_rgb8(a, b)?;
+    write_png_rgb8(path.as_ref(), a.width, a.height, &rgb)?;
+    Ok(scale)
+}
+
+/// The false-colour pixels of [`write_diff_png`] (three bytes a pixel) and
+/// the scale used.
+pub fn diff_rgb8(a: &ImageRgb, b: &ImageRgb) -> Result<(Vec<u8>, f32), ImageError> {
     check_sizes(a, b)?;
     let diffs: Vec<f32> = a
         .pixels
@@ -156,6 +164,5 @@ pub fn write_diff_png(
         };
         rgb.extend_from_slice(&px);
     }
-    write_png_rgb8(path.as_ref(), a.width, a.height, &rgb)?;
-    Ok(scale)
+    Ok((rgb, scale))
 }

@@ -17,6 +17,8 @@ mod atomic;
 mod exr_io;
 mod metrics;
 mod png_io;
+mod sidebyside;
+mod view;
 
 use std::path::PathBuf;
 
@@ -24,9 +26,11 @@ use glam::Vec4;
 
 use crate::Rgb;
 
-pub use exr_io::{read_exr_rgb, write_exr};
-pub use metrics::{compare, write_diff_png, Metrics};
-pub use png_io::{srgb_encode, srgb_to_u8, write_png_preview};
+pub use exr_io::{read_exr, read_exr_rgb, write_exr};
+pub use metrics::{compare, diff_rgb8, write_diff_png, Metrics};
+pub use png_io::{preview_rgb8, srgb_encode, srgb_to_u8, write_png_preview};
+pub use sidebyside::write_side_by_side;
+pub use view::View;
 
 /// Everything that can go wrong reading, writing or comparing images.
 ///
@@ -164,12 +168,21 @@ impl AovLayer {
 ///
 /// Alpha is `1 - transmittance` as produced by the renderer (not
 /// premultiplied into RGB: RGB already contains the background).
+///
+/// An image may be part of a larger one (a tile of a frame): its pixels
+/// are then the data window at [`Image::origin`] inside a display window
+/// of [`Image::display_size`], as OpenEXR stores it. By default the image
+/// is the whole display window.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
     width: usize,
     height: usize,
     pixels: Vec<Vec4>,
     layers: Vec<AovLayer>,
+    /// Top-left pixel of this image in the display window.
+    origin: (usize, usize),
+    /// Size of the whole image this one is part of.
+    display: (usize, usize),
 }
 
 fn check_name(kind: &str, name: &str) -> Result<(), ImageError> {
@@ -201,6 +214,8 @@ impl Image {
             height,
             pixels: vec![rgba; n],
             layers: Vec::new(),
+            origin: (0, 0),
+            display: (width, height),
         }
     }
 
@@ -218,6 +233,8 @@ impl Image {
             height,
             pixels,
             layers: Vec::new(),
+            origin: (0, 0),
+            display: (width, height),
         })
     }
 
@@ -234,7 +251,37 @@ impl Image {
             height,
             pixels,
             layers: Vec::new(),
+            origin: (0, 0),
+            display: (width, height),
         }
+    }
+
+    /// Places this image at `origin` inside a `display`-sized image (a tile
+    /// of a frame). Fails if it does not fit.
+    pub fn set_window(
+        &mut self,
+        origin: (usize, usize),
+        display: (usize, usize),
+    ) -> Result<(), ImageError> {
+        if origin.0 + self.width > display.0 || origin.1 + self.height > display.1 {
+            return Err(ImageError::InvalidArgument(format!(
+                "a {}x{} image at ({}, {}) does not fit in {}x{}",
+                self.width, self.height, origin.0, origin.1, display.0, display.1
+            )));
+        }
+        self.origin = origin;
+        self.display = display;
+        Ok(())
+    }
+
+    /// Top-left pixel of this image in its display window.
+    pub fn origin(&self) -> (usize, usize) {
+        self.origin
+    }
+
+    /// Size of the display window (the whole frame).
+    pub fn display_size(&self) -> (usize, usize) {
+        self.display
     }
 
     /// Width in pixels.
@@ -325,6 +372,10 @@ impl Image {
     /// All AOV layers, in the order they were added.
     pub fn layers(&self) -> &[AovLayer] {
         &self.layers
+    }
+    /// All AOV layers, mutable.
+    pub fn layers_mut(&mut self) -> &mut [AovLayer] {
+        &mut self.layers
     }
     /// The AOV layer named `name`.
     pub fn layer(&self, name: &str) -> Option<&AovLayer> {

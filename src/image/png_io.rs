@@ -3,6 +3,8 @@
 use std::io::Write;
 use std::path::Path;
 
+pub use super::view::View;
+
 use super::atomic::write_atomically;
 use super::{Image, ImageError};
 
@@ -68,9 +70,9 @@ pub(crate) fn write_png_rgb8(
 
 /// Write an 8-bit sRGB preview PNG of the main layer of `image`.
 ///
-/// Each linear RGB value is multiplied by `2^exposure_stops`, clamped to
-/// `[0, 1]` (NaN counts as 0) and encoded with the real sRGB OETF
-/// ([`srgb_to_u8`]); the PNG is tagged sRGB. Alpha is ignored: the PNG is
+/// Each linear RGB value is multiplied by `2^exposure_stops`, then shown
+/// through `view` ([`View::display`]: Blender's Standard, AgX or Filmic for
+/// the sRGB display); the PNG is tagged sRGB. Alpha is ignored: the PNG is
 /// opaque RGB, showing RGB as it is (the renderer's RGB already contains the
 /// background seen through the volume, so no compositing is done). AOV layers
 /// are not shown.
@@ -81,16 +83,30 @@ pub fn write_png_preview(
     path: impl AsRef<Path>,
     image: &Image,
     exposure_stops: f32,
+    view: View,
 ) -> Result<(), ImageError> {
     let path = path.as_ref();
-    let scale = exposure_stops.exp2();
-    let mut rgb = Vec::with_capacity(image.pixels().len() * 3);
-    for p in image.pixels() {
-        for c in 0..3 {
-            rgb.push(srgb_to_u8(p[c] * scale));
-        }
-    }
+    let rgb = preview_rgb8(
+        image.pixels().iter().map(|p| p.truncate()),
+        exposure_stops,
+        view,
+    );
     write_png_rgb8(path, image.width(), image.height(), &rgb)
+}
+
+/// 8-bit sRGB display values of linear pixels under `view`, three bytes a
+/// pixel.
+pub fn preview_rgb8(
+    pixels: impl Iterator<Item = crate::Rgb>,
+    exposure_stops: f32,
+    view: View,
+) -> Vec<u8> {
+    let scale = exposure_stops.exp2();
+    let mut rgb = Vec::new();
+    for p in pixels {
+        rgb.extend(view.display(p * scale));
+    }
+    rgb
 }
 
 #[cfg(test)]

@@ -71,6 +71,16 @@ impl Principled {
         blackbody_tint: Rgb::ONE,
         temperature: 1000.0,
     };
+
+    /// The domain material of Blender's Quick Smoke with fire (Object >
+    /// Quick Effects > Quick Smoke, "Fire + Smoke"): Density 5, Blackbody
+    /// Intensity 1, the rest the node's defaults. Open values of a volume
+    /// that names a temperature or flame grid take these.
+    pub const QUICK_SMOKE_FIRE: Principled = Principled {
+        density: 5.0,
+        blackbody_intensity: 1.0,
+        ..Self::DEFAULT
+    };
 }
 
 impl Default for Principled {

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use serde::Deserialize;
 
+pub use crate::camera::SensorFit;
 pub use crate::integrator::photon::{Estimate, PhotonSettings};
 pub use crate::medium::{BlackbodyFilter, Principled};
 use crate::Rgb;
@@ -71,6 +72,9 @@ pub struct RenderDesc {
     pub exposure: f32,
     /// Write AOV layers (direct, indirect, emission, transmittance).
     pub aovs: bool,
+    /// The frames rendered when the command line names none (`frames`,
+    /// ascending, e.g. the frame range a Blender export wrote).
+    pub frames: Option<Vec<u32>>,
 }
 
 impl Default for RenderDesc {
@@ -88,29 +92,73 @@ impl Default for RenderDesc {
             preview: None,
             exposure: 0.0,
             aovs: false,
+            frames: None,
         }
     }
 }
 
-/// `[camera]`: a pinhole camera.
+/// `[camera]`: a pinhole camera: where it is ([`CameraPose`]), its lens
+/// ([`Lens`]) and Blender's lens shift.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraDesc {
-    pub position: Vec3,
-    pub look_at: Vec3,
-    pub up: Vec3,
-    /// Vertical field of view in degrees, in (0, 180).
-    pub vfov_deg: f32,
+    pub pose: CameraPose,
+    pub lens: Lens,
+    /// Blender's `shift_x`, `shift_y`: the image plane moved by these
+    /// fractions of its fitted side.
+    pub shift: [f32; 2],
 }
 
 impl Default for CameraDesc {
     fn default() -> Self {
         CameraDesc {
-            position: Vec3::new(0.0, -4.5, 0.6),
-            look_at: Vec3::ZERO,
-            up: Vec3::Z,
-            vfov_deg: 40.0,
+            pose: CameraPose::LookAt {
+                position: Vec3::new(0.0, -4.5, 0.6),
+                look_at: Vec3::ZERO,
+                up: Vec3::Z,
+            },
+            lens: Lens::Vfov(40.0),
+            shift: [0.0, 0.0],
         }
     }
+}
+
+/// Where the camera is and where it looks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraPose {
+    /// `position`, `look_at`, `up` (need not be orthogonal to the view).
+    LookAt {
+        position: Vec3,
+        look_at: Vec3,
+        up: Vec3,
+    },
+    /// Blender's camera-to-world matrix (`matrix_world`, or `location` and
+    /// `rotation`): the camera looks down its local −Z with local +Y up;
+    /// scale is ignored.
+    Matrix(DAffine3),
+    /// `framing = "auto"`: aimed at the centre of the volumes' boxes (each
+    /// volume's `bounds`) from `direction` (from the target towards the
+    /// camera), far enough that the boxes' bounding sphere fills the view.
+    Auto { direction: Vec3, up: Vec3 },
+}
+
+/// The direction an automatically framed camera sees the volumes from
+/// (from the target towards the camera): a three-quarter view from the
+/// front right and a little above, with Z up.
+pub const AUTO_VIEW_DIRECTION: Vec3 = Vec3::new(1.0, -1.6, 0.7);
+
+/// How wide the camera sees.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Lens {
+    /// Vertical field of view, degrees, in (0, 180).
+    Vfov(f32),
+    /// Blender's lens: focal length and sensor size in millimetres, and
+    /// which image side the sensor spans.
+    Sensor {
+        focal_length: f32,
+        sensor_width: f32,
+        sensor_height: f32,
+        fit: SensorFit,
+    },
 }
 
 /// One `[[light]]`.
@@ -175,6 +223,27 @@ pub struct VolumeDesc {
     /// transform: `world = transform · file_transform · index`.
     pub transform: DAffine3,
     pub material: MaterialDesc,
+    /// The box automatic camera framing uses for this volume.
+    pub bounds: VolumeBounds,
+}
+
+/// `[[volume]] bounds`: the box of a volume that automatic framing
+/// (`[camera] framing = "auto"`) fits into the view.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum VolumeBounds {
+    /// The active voxels of the frame being rendered.
+    #[default]
+    Active,
+    /// The union of the active voxels of every frame of the sequence whose
+    /// file exists: the framing stays fixed over the sequence.
+    Sequence,
+    /// The fluid domain the file was simulated in (Blender's Mantaflow
+    /// writes its resolution as `file_base_resolution`; index (0,0,0) is
+    /// the domain's corner): fixed over a sequence.
+    Domain,
+    /// A box `[min, max]` in the file's own world space (before the
+    /// volume's `transform`), e.g. a fluid domain's box.
+    Box([DVec3; 2]),
 }
 
 /// `[volume.material]`.

@@ -186,6 +186,35 @@ fn expected(tail: &str) -> String {
     }
 }
 
+/// The expected name closest to a misspelt `name`, if one is close: at
+/// most two edits away (a third of the name for short names), or `name`
+/// with a trailing `s` (`lights`).
+fn closest<'a>(name: &str, expected: &[&'a str]) -> Option<&'a str> {
+    fn distance(a: &str, b: &str) -> usize {
+        let b: Vec<char> = b.chars().collect();
+        let mut row: Vec<usize> = (0..=b.len()).collect();
+        for (i, ca) in a.chars().enumerate() {
+            let mut prev = row[0];
+            row[0] = i + 1;
+            for j in 0..b.len() {
+                let cur = row[j + 1];
+                row[j + 1] = (prev + usize::from(ca != b[j]))
+                    .min(row[j] + 1)
+                    .min(cur + 1);
+                prev = cur;
+            }
+        }
+        row[b.len()]
+    }
+    let limit = (name.chars().count() / 3).clamp(1, 2);
+    expected
+        .iter()
+        .map(|e| (distance(name, e), *e))
+        .filter(|(d, _)| *d <= limit)
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, e)| e)
+}
+
 fn with_key(path: &[PathSeg], key: &str) -> Vec<PathSeg> {
     let mut full = path.to_vec();
     if full.last() != Some(&PathSeg::Key(key.to_owned())) {
@@ -200,10 +229,30 @@ fn with_key(path: &[PathSeg], key: &str) -> Vec<PathSeg> {
 pub(crate) fn rewrite_serde_message(msg: &str, path: &[PathSeg]) -> String {
     let msg = msg.replace(['\n', '\r'], " ");
     if let Some((name, tail)) = msg.strip_prefix("unknown field `").and_then(first_ticked) {
+        let close = closest(name, &ticked(tail));
+        // A misspelt top-level table (`[[lights]]`): the error points into
+        // the table itself.
+        if path.len() > 1 && path.first() == Some(&PathSeg::Key(name.to_owned())) {
+            let (open, end) = match path.get(1) {
+                Some(PathSeg::Index(_)) => ("[[", "]]"),
+                _ => ("[", "]"),
+            };
+            let table = format!("{open}{name}{end}");
+            let hint = close
+                .map(|c| format!("; did you mean {open}{c}{end}?"))
+                .unwrap_or_default();
+            return format!(
+                "unknown table {table} (expected one of: {}{hint})",
+                expected(tail)
+            );
+        }
+        let hint = close
+            .map(|c| format!("; did you mean '{c}'?"))
+            .unwrap_or_default();
         let (section, key) = split_path(&with_key(path, name));
         let key = key.unwrap_or_else(|| name.to_owned());
         return format!(
-            "unknown key '{key}' {section} (expected one of: {})",
+            "unknown key '{key}' {section} (expected one of: {}{hint})",
             expected(tail)
         );
     }

@@ -17,6 +17,7 @@ use super::desc::{
     Integrator, LightDesc, MaterialDesc, PhaseDesc, PhotonSettings, Principled, RenderDesc,
     SceneDesc, VolumeDesc,
 };
+use super::desc::{CameraPose, Lens, SensorFit, VolumeBounds, AUTO_VIEW_DIRECTION};
 use super::error::{kp, PathSeg, ValidationError};
 use crate::Rgb;
 
@@ -96,6 +97,7 @@ struct RenderIn {
     preview: Option<String>,
     exposure: Option<f64>,
     aovs: Option<bool>,
+    frames: Option<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -112,6 +114,73 @@ struct CameraIn {
     look_at: Option<[f64; 3]>,
     up: Option<[f64; 3]>,
     vfov: Option<f64>,
+    focal_length: Option<f64>,
+    sensor_width: Option<f64>,
+    sensor_height: Option<f64>,
+    sensor_fit: Option<SensorFitIn>,
+    shift_x: Option<f64>,
+    shift_y: Option<f64>,
+    matrix: Option<[[f64; 4]; 4]>,
+    location: Option<[f64; 3]>,
+    rotation: Option<[f64; 3]>,
+    framing: Option<FramingIn>,
+    direction: Option<[f64; 3]>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum SensorFitIn {
+    Auto,
+    Horizontal,
+    Vertical,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum FramingIn {
+    Auto,
+}
+
+/// `bounds = "active" | "sequence" | "domain"` or `[[x0, y0, z0], [x1, y1, z1]]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BoundsIn(VolumeBounds);
+
+impl<'de> Deserialize<'de> for BoundsIn {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = BoundsIn;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "\"active\", \"sequence\", \"domain\" or a box [[x0, y0, z0], [x1, y1, z1]]",
+                )
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<BoundsIn, E> {
+                Ok(BoundsIn(match v {
+                    "active" => VolumeBounds::Active,
+                    "sequence" => VolumeBounds::Sequence,
+                    "domain" => VolumeBounds::Domain,
+                    _ => return Err(de::Error::invalid_value(de::Unexpected::Str(v), &self)),
+                }))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<BoundsIn, A::Error> {
+                let lo: [f64; 3] = seq
+                    .next_element()?
+                    .ok_or_else(|| de::Error::invalid_length(0, &self))?;
+                let hi: [f64; 3] = seq
+                    .next_element()?
+                    .ok_or_else(|| de::Error::invalid_length(1, &self))?;
+                if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    return Err(de::Error::invalid_length(3, &self));
+                }
+                Ok(BoundsIn(VolumeBounds::Box([
+                    DVec3::from(lo),
+                    DVec3::from(hi),
+                ])))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -157,6 +226,7 @@ struct VolumeIn {
     blackbody_interpolation: Option<BlackbodyFilterIn>,
     transform: Option<TransformIn>,
     material: Option<MaterialIn>,
+    bounds: Option<BoundsIn>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -285,7 +355,7 @@ impl SceneIn {
             .collect::<Conv<Vec<_>>>()?;
         Ok(SceneDesc {
             render: self.render.into_desc(base)?,
-            camera: self.camera.into_desc(),
+            camera: self.camera.into_desc()?,
             lights,
             environment: self.environment.into_desc(base)?,
             volumes,
@@ -326,19 +396,137 @@ impl RenderIn {
             },
             exposure: self.exposure.map_or(d.exposure, |e| e as f32),
             aovs: self.aovs.unwrap_or(d.aovs),
+            frames: match self.frames {
+                Some(f) => Some(
+                    crate::sequence::parse_frames(&f)
+                        .map_err(|e| ValidationError::new(kp!["render", "frames"], e))?,
+                ),
+                None => None,
+            },
         })
     }
 }
 
 impl CameraIn {
-    fn into_desc(self) -> CameraDesc {
+    fn into_desc(self) -> Conv<CameraDesc> {
         let d = CameraDesc::default();
-        CameraDesc {
-            position: self.position.map_or(d.position, v3),
-            look_at: self.look_at.map_or(d.look_at, v3),
-            up: self.up.map_or(d.up, v3),
-            vfov_deg: self.vfov.map_or(d.vfov_deg, |v| v as f32),
+        let path = kp!["camera"];
+        // Keys that say where the camera is, by the form they belong to.
+        let look_at_keys = [
+            (self.position.is_some(), "position"),
+            (self.look_at.is_some(), "look_at"),
+        ];
+        let blender_keys = [
+            (self.location.is_some(), "location"),
+            (self.rotation.is_some(), "rotation"),
+        ];
+        let first = |keys: &[(bool, &'static str)]| keys.iter().find(|k| k.0).map(|k| k.1);
+        let clash = |a: &str, b: &str| {
+            Err(ValidationError::new(
+                with(&path, b),
+                format!("cannot be combined with '{a}' (the camera is placed by one of: position/look_at/up, matrix, location/rotation, framing = \"auto\")"),
+            ))
+        };
+        let pose = if let Some(m) = self.matrix {
+            if let Some(k) = first(&look_at_keys).or(first(&blender_keys)) {
+                return clash("matrix", k);
+            }
+            for (present, k) in [
+                (self.up.is_some(), "up"),
+                (self.framing.is_some(), "framing"),
+            ] {
+                if present {
+                    return clash("matrix", k);
+                }
+            }
+            if m[3] != [0.0, 0.0, 0.0, 1.0] {
+                return Err(ValidationError::new(
+                    with(&path, "matrix"),
+                    format!("last row must be [0, 0, 0, 1], got {:?}", m[3]),
+                ));
+            }
+            CameraPose::Matrix(affine_from_rows(m))
+        } else if self.location.is_some() || self.rotation.is_some() {
+            if let Some(k) = first(&look_at_keys) {
+                return clash("location", k);
+            }
+            for (present, k) in [
+                (self.up.is_some(), "up"),
+                (self.framing.is_some(), "framing"),
+            ] {
+                if present {
+                    return clash("location", k);
+                }
+            }
+            let location = require(self.location, &path, "location", "with 'rotation'")?;
+            CameraPose::Matrix(compose_trs(
+                DVec3::from(location),
+                self.rotation.map_or(DVec3::ZERO, DVec3::from),
+                DVec3::ONE,
+            ))
+        } else if self.framing.is_some() {
+            if let Some(k) = first(&look_at_keys) {
+                return clash("framing", k);
+            }
+            CameraPose::Auto {
+                direction: self.direction.map_or(AUTO_VIEW_DIRECTION, v3),
+                up: self.up.map_or(Vec3::Z, v3),
+            }
+        } else {
+            let CameraPose::LookAt {
+                position,
+                look_at,
+                up,
+            } = d.pose
+            else {
+                unreachable!("the default camera is a look-at camera")
+            };
+            CameraPose::LookAt {
+                position: self.position.map_or(position, v3),
+                look_at: self.look_at.map_or(look_at, v3),
+                up: self.up.map_or(up, v3),
+            }
+        };
+        if self.direction.is_some() && !matches!(pose, CameraPose::Auto { .. }) {
+            return Err(ValidationError::new(
+                with(&path, "direction"),
+                "only used with framing = \"auto\"",
+            ));
         }
+        let sensor_keys = [
+            (self.focal_length.is_some(), "focal_length"),
+            (self.sensor_width.is_some(), "sensor_width"),
+            (self.sensor_height.is_some(), "sensor_height"),
+            (self.sensor_fit.is_some(), "sensor_fit"),
+        ];
+        let lens = match (self.vfov, first(&sensor_keys)) {
+            (Some(_), Some(k)) => {
+                return Err(ValidationError::new(
+                    with(&path, k),
+                    "cannot be combined with 'vfov' (give either vfov or Blender's focal_length and sensor)",
+                ))
+            }
+            (Some(v), None) => Lens::Vfov(v as f32),
+            (None, Some(_)) => Lens::Sensor {
+                focal_length: self.focal_length.unwrap_or(50.0) as f32,
+                sensor_width: self.sensor_width.unwrap_or(36.0) as f32,
+                sensor_height: self.sensor_height.unwrap_or(24.0) as f32,
+                fit: match self.sensor_fit {
+                    None | Some(SensorFitIn::Auto) => SensorFit::Auto,
+                    Some(SensorFitIn::Horizontal) => SensorFit::Horizontal,
+                    Some(SensorFitIn::Vertical) => SensorFit::Vertical,
+                },
+            },
+            (None, None) => d.lens,
+        };
+        Ok(CameraDesc {
+            pose,
+            lens,
+            shift: [
+                self.shift_x.unwrap_or(0.0) as f32,
+                self.shift_y.unwrap_or(0.0) as f32,
+            ],
+        })
     }
 }
 
@@ -456,6 +644,9 @@ impl EnvironmentIn {
 
 impl VolumeIn {
     fn into_desc(self, base: &Path, path: &[PathSeg]) -> Conv<VolumeDesc> {
+        // A volume that names fire grids gets Blender's Quick Smoke look
+        // where its material leaves a value open.
+        let fire = self.temperature_grid.is_some() || self.flame_grid.is_some();
         Ok(VolumeDesc {
             file: resolve(base, &self.file, with(path, "file"))?,
             density_grid: self.density_grid.unwrap_or_else(|| "density".to_owned()),
@@ -473,7 +664,8 @@ impl VolumeIn {
             material: self
                 .material
                 .unwrap_or_default()
-                .into_desc(&with(path, "material"))?,
+                .into_desc(&with(path, "material"), fire)?,
+            bounds: self.bounds.map_or(VolumeBounds::Active, |b| b.0),
         })
     }
 }
@@ -509,7 +701,11 @@ impl TransformIn {
 }
 
 impl MaterialIn {
-    fn into_desc(self, path: &[PathSeg]) -> Conv<MaterialDesc> {
+    /// `fire`: the volume names a temperature or flame grid, so open
+    /// Principled values take Blender's Quick Smoke (fire) material's
+    /// values ([`Principled::QUICK_SMOKE_FIRE`]) instead of the node's
+    /// defaults.
+    fn into_desc(self, path: &[PathSeg], fire: bool) -> Conv<MaterialDesc> {
         let principled = [
             (self.density.is_some(), "density"),
             (self.color.is_some(), "color"),
@@ -546,7 +742,11 @@ impl MaterialIn {
                 },
             }),
             _ => {
-                let d = Principled::DEFAULT;
+                let d = if fire {
+                    Principled::QUICK_SMOKE_FIRE
+                } else {
+                    Principled::DEFAULT
+                };
                 let f = |v: Option<f64>, d: f32| v.map_or(d, |v| v as f32);
                 let c = |v: Option<Splat3>, d: Rgb| v.map_or(d, rgb);
                 Ok(MaterialDesc::Principled(Principled {

@@ -27,9 +27,10 @@ use std::path::Path;
 pub const MAX_SCENE_BYTES: u64 = 1 << 20;
 
 pub use desc::{
-    affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, EnvironmentDesc,
-    Estimate, Integrator, LightDesc, MaterialDesc, PhaseDesc, PhotonSettings, Principled,
-    RenderDesc, SceneDesc, VolumeDesc,
+    affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, CameraPose,
+    EnvironmentDesc, Estimate, Integrator, Lens, LightDesc, MaterialDesc, PhaseDesc,
+    PhotonSettings, Principled, RenderDesc, SceneDesc, SensorFit, VolumeBounds, VolumeDesc,
+    AUTO_VIEW_DIRECTION,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
 

@@ -3,7 +3,10 @@
 
 use glam::Vec3;
 
-use super::desc::{EnvironmentDesc, LightDesc, MaterialDesc, PhaseDesc, Principled, SceneDesc};
+use super::desc::{
+    CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, PhaseDesc, Principled, SceneDesc,
+    VolumeBounds,
+};
 use super::error::{kp, PathSeg, ValidationError};
 
 type Check = Result<(), ValidationError>;
@@ -90,6 +93,29 @@ fn non_zero_direction(path: &[PathSeg], v: Vec3) -> Check {
     }
 }
 
+/// A path's frame and tile placeholders must be well formed.
+fn pattern(path: &[PathSeg], p: &std::path::Path) -> Check {
+    match crate::sequence::PathPattern::new(p) {
+        Ok(_) => Ok(()),
+        Err(e) => err(path.to_vec(), e),
+    }
+}
+
+/// `up` must not be zero or parallel to `view` (named `what`).
+fn not_parallel(path: &[PathSeg], up: Vec3, view: Vec3, what: &str) -> Check {
+    let sin = view.normalize().cross(up.normalize_or_zero()).length();
+    if sin.is_nan() || sin < 1e-4 {
+        return err(
+            path.to_vec(),
+            format!(
+                "must not be zero or parallel to the view direction {what} = {}",
+                fmt3(view)
+            ),
+        );
+    }
+    Ok(())
+}
+
 fn grid_name(path: &[PathSeg], name: &str) -> Check {
     if name.trim().is_empty() {
         err(path.to_vec(), "grid name must not be empty")
@@ -132,6 +158,15 @@ impl SceneDesc {
                 );
             }
             validate_material(&with(&path, "material"), &volume.material)?;
+            pattern(&with(&path, "file"), &volume.file)?;
+            if let VolumeBounds::Box([lo, hi]) = volume.bounds {
+                if !(lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()) {
+                    return err(
+                        with(&path, "bounds"),
+                        format!("must be finite with min <= max in each axis, got [{lo}, {hi}]"),
+                    );
+                }
+            }
         }
         if self.volumes.is_empty() {
             return err(vec![], "no [[volume]]: a scene needs at least one volume");
@@ -187,37 +222,77 @@ impl SceneDesc {
         if r.preview.as_ref().is_some_and(|p| p.as_os_str().is_empty()) {
             return err(p("preview"), "path must not be empty");
         }
+        pattern(&p("output"), &r.output)?;
+        if let Some(preview) = &r.preview {
+            pattern(&p("preview"), preview)?;
+        }
         finite(&p("exposure"), r.exposure)
     }
 
     fn validate_camera(&self) -> Check {
         let c = &self.camera;
         let p = |k| kp!["camera", k];
-        finite3(&p("position"), c.position)?;
-        finite3(&p("look_at"), c.look_at)?;
-        finite3(&p("up"), c.up)?;
-        in_range(&p("vfov"), c.vfov_deg, (0.0, false), (180.0, false))?;
-        let view = c.look_at - c.position;
-        if view.length_squared() == 0.0 {
-            return err(
-                p("look_at"),
-                format!(
-                    "must differ from 'position' (both are {})",
-                    fmt3(c.position)
-                ),
-            );
+        match c.pose {
+            CameraPose::LookAt {
+                position,
+                look_at,
+                up,
+            } => {
+                finite3(&p("position"), position)?;
+                finite3(&p("look_at"), look_at)?;
+                finite3(&p("up"), up)?;
+                let view = look_at - position;
+                if view.length_squared() == 0.0 {
+                    return err(
+                        p("look_at"),
+                        format!("must differ from 'position' (both are {})", fmt3(position)),
+                    );
+                }
+                not_parallel(&p("up"), up, view, "look_at - position")?;
+            }
+            CameraPose::Matrix(m) => {
+                if !m.is_finite() {
+                    return err(p("matrix"), "must be finite numbers");
+                }
+                let (x, y, z) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
+                let unit = |v: glam::DVec3| v.normalize_or_zero();
+                if m.matrix3.determinant().abs() < 1e-12
+                    || unit(x).dot(unit(y)).abs() > 1e-3
+                    || unit(y).dot(unit(z)).abs() > 1e-3
+                    || unit(z).dot(unit(x)).abs() > 1e-3
+                {
+                    return err(
+                        p("matrix"),
+                        "must be a rotation (with translation and scale): its first three columns must be orthogonal and not zero",
+                    );
+                }
+            }
+            CameraPose::Auto { direction, up } => {
+                non_zero_direction(&p("direction"), direction)?;
+                finite3(&p("up"), up)?;
+                not_parallel(&p("up"), up, direction, "direction")?;
+            }
         }
-        let sin = view.normalize().cross(c.up.normalize_or_zero()).length();
-        if sin.is_nan() || sin < 1e-4 {
-            return err(
-                p("up"),
-                format!(
-                    "must not be zero or parallel to the view direction look_at - position = {}",
-                    fmt3(view)
-                ),
-            );
+        match c.lens {
+            Lens::Vfov(v) => in_range(&p("vfov"), v, (0.0, false), (180.0, false))?,
+            Lens::Sensor {
+                focal_length,
+                sensor_width,
+                sensor_height,
+                fit: _,
+            } => {
+                in_range(&p("focal_length"), focal_length, (0.0, false), (1e6, true))?;
+                in_range(&p("sensor_width"), sensor_width, (0.0, false), (1e6, true))?;
+                in_range(
+                    &p("sensor_height"),
+                    sensor_height,
+                    (0.0, false),
+                    (1e6, true),
+                )?;
+            }
         }
-        Ok(())
+        in_range(&p("shift_x"), c.shift[0], (-100.0, true), (100.0, true))?;
+        in_range(&p("shift_y"), c.shift[1], (-100.0, true), (100.0, true))
     }
 
     fn validate_environment(&self) -> Check {

@@ -1,14 +1,35 @@
 """Render a vdbphoton scene file with Blender 5.0.1 Cycles (the `bpy` module).
 
 Usage:
-    VENV/bin/python tools/blender/render_cycles.py SCENE.toml OUT.exr \
-        [--spp N] [--seed S] [--width W --height H] [--threads 2]
+    VENV/bin/python tools/blender/render_cycles.py SCENE.toml [OUT.exr] \
+        [--spp N] [--seed S] [--width W --height H] [--threads 2] \
+        [--frames LIST | --frame N] [--skip-existing] [--half]
 
 VENV is a Python 3.11 venv with `pip install bpy==5.0.1`. SCENE is a scene in
-vdbphoton's format (docs/scene.md): TOML, or JSON when the name ends in
-`.json`. Paths in it are relative to the scene file. OUT is a float32 RGBA
-EXR (ZIP), linear, no view transform (alpha is 1: the film is not
-transparent). Command-line values override [render] spp/seed/width/height.
+vdbphoton's format (docs/scene.md, plus the keys of the pipeline CLI: Blender
+camera keys, frame patterns, [render] frames, [[volume]] bounds): TOML, or
+JSON when the name ends in `.json`. Paths in it are relative to the scene
+file. OUT (default: the scene's [render] output, relative to the scene) is a
+float32 RGBA EXR (ZIP; half float with --half), linear, no view transform
+(alpha is 1: the film is not transparent), written to a temporary name in
+its folder (created if missing) and renamed when complete; it must end in
+`.exr`. Command-line values override [render] spp/seed/width/height.
+
+Frame sequences: `[[volume]] file` and OUT may hold a frame pattern,
+`{frame}` (no padding), `{frame:04}` (zero-padded to 4 digits; any
+`{frame:0N}` or `{frame:N}`, N <= 10) or a run of N `#` (zero-padded to N).
+`--frames LIST` renders every frame of LIST (`1-40`, `1-3,5,7-20:2`: A-B
+inclusive, :STEP on a range, ascending, repeats dropped; frames up to
+9999999), `--frame N` one frame; without either,
+[render] frames (same syntax) if the scene has it. A pattern with no frames
+given is an error, and so are several frames written to an OUT without a
+pattern. Each frame is a fresh Blender scene built from the scene file with
+the frame substituted, rendered with the same seed (Cycles' animated seed
+off), so a frame rendered alone equals the same frame of a sequence. A frame
+whose volume file is missing or unreadable, or lacks a named grid, fails
+with one line naming the frame and the file; the other frames still render,
+and the exit code is then 1. --skip-existing skips a frame whose OUT exists
+(outputs are renamed into place only when complete).
 
 Everything that would bias a reference is off, as /work/shared/REFERENCE.md
 lists and scripts/README.md checked: no clamping (direct and indirect 0), no
@@ -19,8 +40,38 @@ volume integrator, Standard view transform with no look/exposure/gamma, all
 bounce limits = [render] max_bounces (transparent 1024).
 
 Mapping of the format onto Blender (conventions of docs/scene.md):
-  [camera]      pinhole, sensor fit VERTICAL, angle_y = vfov; oriented from
-                position/look_at/up (camera -Z forward, +Y up).
+  [camera]      a perspective camera (Blender's: looks down its local -Z,
+                local +Y up, clip start 1e-4, clip end 1e6).
+                Lens: vfov -> sensor fit VERTICAL, angle_y = vfov (Blender
+                keeps sensor_height 24 and sets lens = 12 / tan(vfov/2)).
+                Or Blender's keys, copied as they are: focal_length -> Focal
+                Length (lens, mm, default 50), sensor_width / sensor_height
+                (mm, default 36 / 24), sensor_fit auto|horizontal|vertical
+                (default auto) -> Sensor Fit; vfov may not be given with
+                them, and values below Blender's 1 mm minimum are errors
+                (Blender would clamp them). shift_x,
+                shift_y -> Shift X / Y, with either lens (default 0).
+                Orientation, one of: position/look_at/up (defaults as in
+                docs/scene.md): right = normalize(forward x up), camera +Y =
+                right x forward; matrix (4 rows of 4, row-major, Blender's
+                matrix_world of the camera, last row 0 0 0 1) -> the
+                object's world matrix, columns normalised (scale ignored, as
+                Blender's view and Cycles ignore it; columns not orthogonal
+                within 1e-4 or a reflection are errors); location +
+                rotation (XYZ Euler, degrees, default 0 0 0; rotation needs
+                location) -> the object's location and rotation_euler
+                (matrix T Rz Ry Rx). framing = "auto" (with `direction`) is
+                refused: it is vdbphoton's own choice of camera from the
+                volumes' boxes, which a reference must be given explicitly.
+                Pixel placement (checked against Blender's projection and
+                Cycles renders in tests/data/camera/README.md): fit =
+                horizontal if (auto and W >= H) or horizontal, else
+                vertical; S = sensor_width for auto and horizontal,
+                sensor_height for vertical; D = W for a horizontal fit, H for
+                a vertical one; f_px = focal_length / S * D; a point at
+                camera coordinates (x, y, z), z < 0 in front, lands at pixel
+                (W/2 + f_px x/(-z) - shift_x D, H/2 - f_px y/(-z) + shift_y D)
+                (x right, y down from the top-left corner).
   sun           Sun light, Strength = irradiance (W/m^2), Angle = angle;
                 shines along -direction. Not visible to camera rays (neither
                 is vdbphoton's).
@@ -42,7 +93,10 @@ Mapping of the format onto Blender (conventions of docs/scene.md):
                 its edge; towards +Y Cycles u = 0.25, vdbphoton 0.75).
                 This script keeps Blender's mapping, so a scene with a map
                 shows that difference.
-  [[volume]]    a Volume object reading `file`; transform translate/rotate
+  [[volume]]    a Volume object reading `file` (with the frame substituted);
+                `bounds` ("active", "sequence", "domain" or a box) is
+                checked and otherwise unused (it only steers vdbphoton's
+                automatic framing); transform translate/rotate
                 (XYZ Euler)/scale as the object's location/rotation/scale, or
                 matrix as its world matrix (Blender applies it after the
                 file's own transform, as vdbphoton does).
@@ -50,7 +104,10 @@ Mapping of the format onto Blender (conventions of docs/scene.md):
                 density_grid, Temperature Attribute = temperature_grid (empty
                 without one: Cycles then uses Temperature itself, as
                 vdbphoton does), Color Attribute = color_grid; a flame_grid
-                multiplies Emission Strength (Attribute x Math node).
+                multiplies Emission Strength (Attribute x Math node). A
+                volume naming temperature_grid or flame_grid gets Blender's
+                Quick Smoke values for what its material leaves out:
+                Density 5, Blackbody Intensity 1 (as vdbphoton).
   raw keys      Attribute(density_grid) drives Volume Scatter (Density =
                 max(sigma_s)*d, Color = sigma_s/max; HG Anisotropy g, one
                 node per lobe of an hg_mix with its weight share), Volume
@@ -60,7 +117,8 @@ Mapping of the format onto Blender (conventions of docs/scene.md):
 
 Keys it cannot reproduce stop the script with a message naming the key
 (phase "schlick", render.integrator other than "path", render.aovs = true, a
-seed beyond Cycles' 2^31 - 1). Unknown keys are errors, as in vdbphoton.
+seed beyond Cycles' 2^31 - 1, camera framing = "auto"). Unknown keys are
+errors, as in vdbphoton; scene errors exit with code 2.
 
 Known differences that are not errors (printed as notes): vdbphoton applies
 Emission Strength only where the density is > 0, and blackbody emission
@@ -68,15 +126,18 @@ without a temperature grid too; Cycles' shader runs wherever its volume mesh
 (built around the active voxels of the grids) is. vdbphoton's raw keys
 ignore color_grid and flame_grid; so does this script.
 
-Printed: RENDER_TIME, the wall time of bpy.ops.render.render (Cycles' scene
-synchronisation, i.e. VDB loading and NanoVDB / volume mesh build, plus path
-tracing; the bpy module prints no per-phase times), and TOTAL_WALL, the whole
-script (Python start, bpy import, scene build, render, EXR write).
+Printed per image: RENDER_TIME, the wall time of bpy.ops.render.render
+(Cycles' scene synchronisation, i.e. VDB loading and NanoVDB / volume mesh
+build, plus path tracing; the bpy module prints no per-phase times), then
+`Saved: 'PATH'` once the EXR is in place (lines prefixed `frame N: ` in a
+sequence, and a `frame N: T s` line on stderr); at the end TOTAL_WALL, the
+whole script (Python start, bpy import, scene builds, renders, EXR writes).
 """
 import argparse
 import json
 import math
 import os
+import re
 import sys
 import time
 
@@ -88,11 +149,16 @@ except ImportError:  # Python < 3.11
     tomllib = None
 
 import bpy
-from mathutils import Matrix, Vector
+from mathutils import Euler, Matrix, Vector
 
 
 class SceneError(Exception):
     pass
+
+
+class FrameError(SceneError):
+    """An input of one frame is missing or unreadable: that frame fails, the
+    others still render."""
 
 
 def fail(msg):
@@ -164,11 +230,73 @@ def resolve(base, p):
     return p if os.path.isabs(p) else os.path.normpath(os.path.join(base, p))
 
 
+# ------------------------------------------------------------------- frames
+
+# {frame} (no padding), {frame:0N} or {frame:N} (zero-padded to N digits,
+# N = 1..10), a run of N '#' (zero-padded to N), as vdbphoton reads them.
+FRAME_PATTERN = re.compile(r'\{frame(?::0?([1-9]|10))?\}|#+')
+MAX_FRAME = 9999999
+
+
+def has_frame_pattern(path):
+    return bool(FRAME_PATTERN.search(path))
+
+
+def check_frame_pattern(path, key):
+    rest = FRAME_PATTERN.sub('', path)
+    if '{frame' in rest:
+        fail(f"key '{key}': unknown frame pattern in {path!r} (use {{frame}}, {{frame:04}} or ####)")
+    if '{tile}' in rest:
+        fail(f"key '{key}': {{tile}} in {path!r}: this script renders whole frames, not tiles")
+
+
+def with_frame(path, frame):
+    """`path` with its frame patterns replaced by `frame` (None: unchanged)."""
+    if frame is None:
+        return path
+
+    def sub(m):
+        if m.group(0).startswith('#'):
+            width = len(m.group(0))
+        else:
+            width = int(m.group(1)) if m.group(1) else 0
+        return f'{frame:0{width}d}' if width else str(frame)
+    return FRAME_PATTERN.sub(sub, path)
+
+
+def parse_frames(text, where):
+    """'1-40', '1-3,5,7-20:2' -> [1, 2, 3, 5, 7, 9, ...] (A-B inclusive,
+    :STEP on a range; ascending, repeats dropped, as vdbphoton)."""
+    if not isinstance(text, str):
+        fail(f"{where}: expected a frame list string such as \"1-40\" or \"1-3,5,7-20:2\", "
+             f"got {text!r}")
+    frames = []
+    for part in text.split(','):
+        part = part.strip()
+        m = re.fullmatch(r'(\d+)(?:\s*-\s*(\d+)(?:\s*:\s*(\d+))?)?', part)
+        if not m:
+            fail(f"{where}: bad frame list {text!r} at {part!r} (expected N, A-B or A-B:STEP)")
+        a = int(m.group(1))
+        b = int(m.group(2)) if m.group(2) is not None else a
+        step = int(m.group(3)) if m.group(3) is not None else 1
+        if b < a:
+            fail(f"{where}: bad frame list {text!r}: range {part!r} ends before it starts")
+        if step < 1:
+            fail(f"{where}: bad frame list {text!r}: step must be >= 1 in {part!r}")
+        if b > MAX_FRAME:
+            fail(f"{where}: bad frame list {text!r}: frame numbers go up to {MAX_FRAME}")
+        frames.extend(range(a, b + 1, step))
+    return sorted(set(frames))
+
+
 # ------------------------------------------------------------------- set-up
 
-def setup_render(scene, r, args, out):
-    check_keys(r, ['width', 'height', 'spp', 'seed', 'max_bounces', 'integrator',
-                   'output', 'preview', 'exposure', 'aovs'], '[render]')
+RENDER_KEYS = ['width', 'height', 'spp', 'seed', 'max_bounces', 'integrator', 'output',
+               'preview', 'exposure', 'aovs', 'frames']
+
+
+def setup_render(scene, r, args):
+    check_keys(r, RENDER_KEYS, '[render]')
     if r.get('integrator', 'path') != 'path':
         fail(f"key 'integrator' in [render]: only \"path\" can be rendered with Cycles, got {r['integrator']!r}")
     if r.get('aovs', False):
@@ -226,21 +354,66 @@ def setup_render(scene, r, args, out):
     scene.view_settings.exposure = 0.0
     scene.view_settings.gamma = 1.0
     scene.render.image_settings.file_format = 'OPEN_EXR'
-    scene.render.image_settings.color_depth = '32'
+    scene.render.image_settings.color_depth = '16' if args.half else '32'
     scene.render.image_settings.color_mode = 'RGBA'
     scene.render.image_settings.exr_codec = 'ZIP'
-    scene.render.filepath = out
     return dict(width=width, height=height, spp=spp, seed=seed, max_bounces=mb)
 
 
-def setup_camera(scene, c):
-    check_keys(c, ['position', 'look_at', 'up', 'vfov'], '[camera]')
+CAMERA_KEYS = ['position', 'look_at', 'up', 'vfov', 'focal_length', 'sensor_width',
+               'sensor_height', 'sensor_fit', 'shift_x', 'shift_y', 'matrix', 'location',
+               'rotation', 'framing', 'direction']
+LENS_KEYS = ['focal_length', 'sensor_width', 'sensor_height', 'sensor_fit']
+SENSOR_FITS = {'auto': 'AUTO', 'horizontal': 'HORIZONTAL', 'vertical': 'VERTICAL'}
+
+
+def camera_pose(c):
+    """The camera's world matrix (Blender's matrix_world: looks down local -Z,
+    local +Y up) from position/look_at/up, matrix, or location + rotation."""
+    groups = [('position/look_at/up', [k for k in ('position', 'look_at', 'up') if k in c]),
+              ('matrix', [k for k in ('matrix',) if k in c]),
+              ('location/rotation', [k for k in ('location', 'rotation') if k in c])]
+    given = [(g, ks) for g, ks in groups if ks]
+    if len(given) > 1:
+        fail(f"key '{given[1][1][0]}' in [camera]: not together with '{given[0][1][0]}' "
+             "(orient the camera by position/look_at/up, by matrix, or by location + rotation)")
+    kind = given[0][0] if given else 'position/look_at/up'
+    if kind == 'matrix':
+        rows = c['matrix']
+        if not isinstance(rows, list) or len(rows) != 4 or any(
+                not isinstance(r, list) or len(r) != 4 for r in rows):
+            fail("key 'matrix' in [camera]: expected 4 rows of 4 numbers (row-major, "
+                 "Blender's camera matrix_world)")
+        m = [[num(x, 'camera.matrix') for x in r] for r in rows]
+        if m[3] != [0.0, 0.0, 0.0, 1.0]:
+            fail("key 'matrix' in [camera]: the last row must be 0 0 0 1")
+        cols = [Vector((m[0][j], m[1][j], m[2][j])) for j in range(3)]
+        if min(v.length for v in cols) < 1e-12:
+            fail("key 'matrix' in [camera]: a column of the 3 x 3 part is zero")
+        # Scale is ignored, as Blender's view and Cycles (transform_clear_scale) do.
+        cols = [v.normalized() for v in cols]
+        if max(abs(cols[0].dot(cols[1])), abs(cols[0].dot(cols[2])),
+               abs(cols[1].dot(cols[2]))) > 1e-4:
+            fail("key 'matrix' in [camera]: the 3 x 3 part must be a rotation (times a "
+                 "positive scale per axis); its columns are not orthogonal")
+        if cols[0].cross(cols[1]).dot(cols[2]) <= 0:
+            fail("key 'matrix' in [camera]: the 3 x 3 part is a reflection (determinant < 0)")
+        return Matrix((
+            (cols[0].x, cols[1].x, cols[2].x, m[0][3]),
+            (cols[0].y, cols[1].y, cols[2].y, m[1][3]),
+            (cols[0].z, cols[1].z, cols[2].z, m[2][3]),
+            (0.0, 0.0, 0.0, 1.0)))
+    if kind == 'location/rotation':
+        if 'location' not in c:
+            fail("missing key 'location' in [camera] (with 'rotation')")
+        loc = Vector(vec3(c['location'], 'camera.location'))
+        rot = Euler([math.radians(a) for a in vec3(c.get('rotation', [0.0, 0.0, 0.0]),
+                                                     'camera.rotation')], 'XYZ')
+        # Blender's object matrix: T * Rz * Ry * Rx (XYZ Euler).
+        return Matrix.Translation(loc) @ rot.to_matrix().to_4x4()
     pos = Vector(vec3(c.get('position', [0.0, -4.5, 0.6]), 'camera.position'))
     at = Vector(vec3(c.get('look_at', [0.0, 0.0, 0.0]), 'camera.look_at'))
     up = Vector(vec3(c.get('up', [0.0, 0.0, 1.0]), 'camera.up'))
-    vfov = num(c.get('vfov', 40.0), 'camera.vfov')
-    if not (0 < vfov < 180):
-        fail(f"key 'vfov' in [camera]: must be in (0, 180), got {vfov}")
     f = at - pos
     if f.length == 0:
         fail("key 'look_at' in [camera]: must differ from position")
@@ -250,22 +423,59 @@ def setup_camera(scene, c):
         fail("key 'up' in [camera]: must not be zero or parallel to look_at - position")
     right.normalize()
     u = right.cross(f)
-    cam = bpy.data.cameras.new('Cam')
-    cam.type = 'PERSP'
-    cam.sensor_fit = 'VERTICAL'
-    cam.angle_y = math.radians(vfov)
-    cam.shift_x = cam.shift_y = 0.0
-    cam.clip_start = 1e-4
-    cam.clip_end = 1e6
-    camo = bpy.data.objects.new('Cam', cam)
-    scene.collection.objects.link(camo)
     # Camera looks along its local -Z with +Y up.
-    m = Matrix((
+    return Matrix((
         (right.x, u.x, -f.x, pos.x),
         (right.y, u.y, -f.y, pos.y),
         (right.z, u.z, -f.z, pos.z),
         (0, 0, 0, 1)))
-    camo.matrix_world = m
+
+
+def setup_camera(scene, c):
+    check_keys(c, CAMERA_KEYS, '[camera]')
+    if 'direction' in c and 'framing' not in c:
+        fail("key 'direction' in [camera]: only used with framing = \"auto\"")
+    if 'framing' in c:
+        if c['framing'] != 'auto':
+            fail(f"key 'framing' in [camera]: expected \"auto\", got {c['framing']!r}")
+        fail("key 'framing' in [camera]: \"auto\" is vdbphoton's own choice of camera from the "
+             "volumes' boxes; a reference needs the camera written out (give position/look_at/"
+             "up and vfov, or matrix / location + rotation and focal_length)")
+    cam = bpy.data.cameras.new('Cam')
+    cam.type = 'PERSP'
+    lens = [k for k in LENS_KEYS if k in c]
+    if lens:
+        if 'vfov' in c:
+            fail(f"key '{lens[0]}' in [camera]: not together with 'vfov'")
+        fl = num(c.get('focal_length', 50.0), 'camera.focal_length')
+        sw = num(c.get('sensor_width', 36.0), 'camera.sensor_width')
+        sh = num(c.get('sensor_height', 24.0), 'camera.sensor_height')
+        # Blender's hard minimum is 1 mm for all three; below it Blender would
+        # silently clamp the value.
+        for k, x in (('focal_length', fl), ('sensor_width', sw), ('sensor_height', sh)):
+            if not x >= 1.0:
+                fail(f"key '{k}' in [camera]: Blender's minimum is 1 mm, got {x}")
+        fit = c.get('sensor_fit', 'auto')
+        if fit not in SENSOR_FITS:
+            fail(f"key 'sensor_fit' in [camera]: expected \"auto\", \"horizontal\" or "
+                 f"\"vertical\", got {fit!r}")
+        cam.sensor_fit = SENSOR_FITS[fit]
+        cam.sensor_width = sw
+        cam.sensor_height = sh
+        cam.lens = fl
+    else:
+        vfov = num(c.get('vfov', 40.0), 'camera.vfov')
+        if not (0 < vfov < 180):
+            fail(f"key 'vfov' in [camera]: must be in (0, 180), got {vfov}")
+        cam.sensor_fit = 'VERTICAL'
+        cam.angle_y = math.radians(vfov)
+    cam.shift_x = num(c.get('shift_x', 0.0), 'camera.shift_x')
+    cam.shift_y = num(c.get('shift_y', 0.0), 'camera.shift_y')
+    cam.clip_start = 1e-4
+    cam.clip_end = 1e6
+    camo = bpy.data.objects.new('Cam', cam)
+    scene.collection.objects.link(camo)
+    camo.matrix_world = camera_pose(c)
     scene.camera = camo
 
 
@@ -420,13 +630,18 @@ def clamp0(nt, socket):
 
 def principled_material(nt, mat, v, where, notes):
     pv = nt.nodes.new('ShaderNodeVolumePrincipled')
-    d = num(mat.get('density', 1.0), 'material.density')
+    # A volume naming a temperature or flame grid gets Blender's Quick Smoke
+    # values for the keys it leaves out (Density 5, Blackbody Intensity 1), as
+    # in vdbphoton.
+    smoke = 'temperature_grid' in v or 'flame_grid' in v
+    d = num(mat.get('density', 5.0 if smoke else 1.0), 'material.density')
     col = nonneg_rgb(mat.get('color', 0.5), 'material.color')
     ac = nonneg_rgb(mat.get('absorption_color', 0.0), 'material.absorption_color')
     g = num(mat.get('anisotropy', 0.0), 'material.anisotropy')
     es = num(mat.get('emission_strength', 0.0), 'material.emission_strength')
     ec = nonneg_rgb(mat.get('emission_color', 1.0), 'material.emission_color')
-    bi = num(mat.get('blackbody_intensity', 0.0), 'material.blackbody_intensity')
+    bi = num(mat.get('blackbody_intensity', 1.0 if smoke else 0.0),
+             'material.blackbody_intensity')
     bt = nonneg_rgb(mat.get('blackbody_tint', 1.0), 'material.blackbody_tint')
     temp = num(mat.get('temperature', 1000.0), 'material.temperature')
     for k, x in (('density', d), ('emission_strength', es), ('blackbody_intensity', bi),
@@ -541,15 +756,33 @@ def raw_material(nt, mat, v, where, notes):
     return add_shaders(nt, shaders)
 
 
-def setup_volume(scene, i, v, base, notes):
+def check_bounds(v, where):
+    """`bounds` only steers vdbphoton's automatic framing; checked, not used."""
+    b = v['bounds']
+    if b in ('active', 'sequence', 'domain'):
+        return
+    if not isinstance(b, list) or len(b) != 2:
+        fail(f"key 'bounds' in {where}: expected \"active\", \"sequence\", \"domain\" or "
+             "[[x0, y0, z0], [x1, y1, z1]]")
+    lo, hi = vec3(b[0], 'volume.bounds'), vec3(b[1], 'volume.bounds')
+    if any(a > c for a, c in zip(lo, hi)):
+        fail(f"key 'bounds' in {where}: the first corner must be <= the second in x, y and z")
+
+
+def setup_volume(scene, i, v, base, notes, frame):
     where = f'[[volume]] #{i + 1}'
     check_keys(v, ['file', 'density_grid', 'temperature_grid', 'flame_grid', 'color_grid',
-                   'transform', 'material'], where)
+                   'transform', 'material', 'bounds'], where)
     if 'file' not in v:
         fail(f"missing key 'file' in {where}")
-    path = resolve(base, v['file'])
-    if not os.path.exists(path):
-        fail(f"key 'file' in {where}: cannot read {path}")
+    if not isinstance(v['file'], str):
+        fail(f"key 'file' in {where}: expected a path, got {v['file']!r}")
+    if 'bounds' in v:
+        check_bounds(v, where)
+    path = resolve(base, with_frame(v['file'], frame))
+    if not os.path.isfile(path):
+        what = 'no such file' if not os.path.exists(path) else 'not a file'
+        raise FrameError(f"key 'file' in {where}: {what}: {path}")
     vol = bpy.data.volumes.new(f'vol{i}')
     vol.filepath = path
     vol.render.precision = 'FULL'
@@ -559,11 +792,13 @@ def setup_volume(scene, i, v, base, notes):
     vol.grids.load()
     names = [g.name for g in vol.grids]
     if not names:
-        fail(f"key 'file' in {where}: Blender read no grids from {path}")
+        err = vol.grids.error_message or 'no grids'
+        raise FrameError(f"key 'file' in {where}: Blender cannot read {path}: {err}")
     for k in ('density_grid', 'temperature_grid', 'flame_grid', 'color_grid'):
         name = v.get(k, 'density' if k == 'density_grid' else None)
         if name is not None and name not in names:
-            fail(f"key '{k}' in {where}: no grid '{name}' in {path} (grids: {', '.join(names)})")
+            raise FrameError(f"key '{k}' in {where}: no grid '{name}' in {path} "
+                             f"(grids: {', '.join(names)})")
 
     tr = v.get('transform', {})
     check_keys(tr, ['translate', 'rotate', 'scale', 'matrix'], f'{where}.transform')
@@ -610,18 +845,74 @@ def setup_volume(scene, i, v, base, notes):
 
 # --------------------------------------------------------------------- main
 
+def build_scene(desc, args, base, frame, notes):
+    """A fresh Blender scene for one frame (None: a scene without frames)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    if frame is not None:
+        scene.frame_set(frame)
+    info = setup_render(scene, desc.get('render', {}), args)
+    setup_camera(scene, desc.get('camera', {}))
+    setup_lights(scene, desc.get('light', []))
+    setup_world(scene, desc.get('environment', {}), base)
+    vols = desc.get('volume', [])
+    if not isinstance(vols, list) or not vols:
+        fail('no [[volume]]: a scene needs at least one volume')
+    paths = []
+    for i, v in enumerate(vols):
+        path, grids = setup_volume(scene, i, v, base, notes, frame)
+        paths.append((path, grids))
+    return scene, info, paths
+
+
+def frame_list(desc, args):
+    """The frames to render: --frame, --frames, [render] frames, or [None]."""
+    if args.frame is not None and args.frames is not None:
+        fail('give --frame or --frames, not both')
+    if args.frame is not None:
+        if not 0 <= args.frame <= MAX_FRAME:
+            fail(f'--frame: expected a frame number in 0 ..= {MAX_FRAME}, got {args.frame}')
+        return [args.frame]
+    if args.frames is not None:
+        return parse_frames(args.frames, '--frames')
+    r = desc.get('render', {})
+    if isinstance(r, dict) and 'frames' in r:
+        return parse_frames(r['frames'], "key 'frames' in [render]")
+    return None
+
+
+def save_exr(scene, out):
+    """Writes the render result to `out` through a temporary name."""
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    tmp = os.path.join(os.path.dirname(out), f'.{os.path.basename(out)}.{os.getpid()}.tmp.exr')
+    try:
+        bpy.data.images['Render Result'].save_render(filepath=tmp, scene=scene)
+        if not os.path.isfile(tmp):
+            raise OSError(f'Blender wrote no file {tmp}')
+        os.replace(tmp, out)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('scene')
-    ap.add_argument('out')
+    ap.add_argument('out', nargs='?',
+                    help="output EXR (may hold {frame}, {frame:04} or ####); default: the "
+                         "scene's [render] output")
     ap.add_argument('--spp', type=int)
     ap.add_argument('--seed', type=int)
     ap.add_argument('--width', type=int)
     ap.add_argument('--height', type=int)
     ap.add_argument('--threads', type=int, default=2)
+    ap.add_argument('--frames', help="frame list: '1-40', '1-3,5,7-20:2'")
+    ap.add_argument('--frame', type=int, help='render this one frame')
+    ap.add_argument('--skip-existing', action='store_true',
+                    help='skip a frame whose output EXR exists')
+    ap.add_argument('--half', action='store_true', help='write half-float EXRs (float32 otherwise)')
     args = ap.parse_args(argv)
     scene_path = os.path.abspath(args.scene)
-    out = os.path.abspath(args.out)
     base = os.path.dirname(scene_path)
     name = os.path.basename(scene_path)
     try:
@@ -630,34 +921,86 @@ def main(argv):
         print(f'{name}: {e}', file=sys.stderr)
         return 2
 
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    notes = []
     try:
         check_keys(desc, ['render', 'camera', 'light', 'environment', 'volume'], 'the scene')
-        info = setup_render(scene, desc.get('render', {}), args, out)
-        setup_camera(scene, desc.get('camera', {}))
-        setup_lights(scene, desc.get('light', []))
-        setup_world(scene, desc.get('environment', {}), base)
+        r = desc.get('render', {})
+        check_keys(r, RENDER_KEYS, '[render]')
+        if args.out is not None:
+            out_pattern = os.path.abspath(args.out)
+        else:
+            o = r.get('output', 'out.exr')
+            if not isinstance(o, str):
+                fail(f"key 'output' in [render]: expected a path, got {o!r}")
+            out_pattern = resolve(base, o)
+        if not out_pattern.lower().endswith('.exr'):
+            fail(f'output {out_pattern}: the name must end in .exr')
+        check_frame_pattern(out_pattern, 'output')
         vols = desc.get('volume', [])
-        if not isinstance(vols, list) or not vols:
-            fail('no [[volume]]: a scene needs at least one volume')
-        for i, v in enumerate(vols):
-            path, grids = setup_volume(scene, i, v, base, notes)
-            print(f'volume {i + 1}: {path} grids {grids}')
+        patterned = []
+        if isinstance(vols, list):
+            for i, v in enumerate(vols):
+                if isinstance(v, dict) and isinstance(v.get('file'), str):
+                    check_frame_pattern(v['file'], f'file in [[volume]] #{i + 1}')
+                    if has_frame_pattern(v['file']):
+                        patterned.append(v['file'])
+        frames = frame_list(desc, args)
+        if frames is None:
+            if patterned or has_frame_pattern(out_pattern):
+                what = patterned[0] if patterned else out_pattern
+                fail(f'{what!r} holds a frame pattern but no frames are given (use --frames, '
+                     "--frame or [render] frames)")
+            frames = [None]
+        elif len(frames) > 1 and not has_frame_pattern(out_pattern):
+            fail(f'{len(frames)} frames would all be written to {out_pattern}: put {{frame:04}} '
+                 'or #### in the output name')
     except SceneError as e:
         print(f'{name}: {e}', file=sys.stderr)
         return 2
-    for n in notes:
-        print('note:', n)
 
-    print(f"SAMPLES {info['spp']} SEED {info['seed']} SIZE {info['width']}x{info['height']} "
-          f"MAX_BOUNCES {info['max_bounces']} THREADS {scene.render.threads}", flush=True)
-    t0 = time.time()
-    bpy.ops.render.render(write_still=True)
-    t1 = time.time()
-    print(f'RENDER_TIME {t1 - t0:.2f} s -> {out}')
+    failed = []
+    for frame in frames:
+        tag = '' if frame is None else f'frame {frame}: '
+        out = with_frame(out_pattern, frame)
+        if args.skip_existing and os.path.exists(out):
+            print(f'{tag}skipped, {out} exists', file=sys.stderr)
+            continue
+        notes = []
+        t_frame = time.time()
+        try:
+            scene, info, paths = build_scene(desc, args, base, frame, notes)
+        except FrameError as e:
+            print(f'{name}: {tag}{e}', file=sys.stderr, flush=True)
+            if frame is None:
+                return 2
+            failed.append(frame)
+            continue
+        except SceneError as e:
+            print(f'{name}: {tag}{e}', file=sys.stderr)
+            return 2
+        for i, (path, grids) in enumerate(paths):
+            print(f'{tag}volume {i + 1}: {path} grids {grids}')
+        for n in notes:
+            print('note:', n)
+        print(f"{tag}SAMPLES {info['spp']} SEED {info['seed']} SIZE {info['width']}x{info['height']} "
+              f"MAX_BOUNCES {info['max_bounces']} THREADS {scene.render.threads}", flush=True)
+        t0 = time.time()
+        bpy.ops.render.render(write_still=False)
+        t1 = time.time()
+        try:
+            save_exr(scene, out)
+        except OSError as e:
+            print(f'{name}: {tag}cannot write {out}: {e}', file=sys.stderr, flush=True)
+            failed.append(frame)
+            continue
+        print(f'{tag}RENDER_TIME {t1 - t0:.2f} s -> {out}')
+        print(f"Saved: '{out}'", flush=True)
+        if frame is not None:
+            print(f'frame {frame}: {time.time() - t_frame:.2f} s', file=sys.stderr, flush=True)
     print(f'TOTAL_WALL {time.time() - T_START:.2f} s')
+    if failed:
+        print(f"{name}: {len(failed)} of {len(frames)} frames failed: "
+              f"{', '.join(str(f) for f in failed)}", file=sys.stderr)
+        return 1
     return 0
 
 

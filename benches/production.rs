@@ -1,0 +1,158 @@
+//! Production-size volumes: prints figures, asserts nothing.
+//! `cargo bench --bench production` (`BENCH_RES=1024` voxels along an edge
+//! by default, several as `1024,2048`; `BENCH_BUDGET=60` seconds per
+//! integrator; `BENCH_SIZE=1920x1080`; the generated files are kept in
+//! `BENCH_DIR`, default `target/bench`).
+//!
+//! For each resolution: the generated cloud (`vdbphoton generate cloud
+//! --res N`: fBm in soft spheres, its saturated core as tiles), the time to
+//! make and write it and its size; the time to load it as a scene and the
+//! memory its grid takes; then a 1920 x 1080 frame with the path tracer and
+//! with the photon integrator for the same wall-clock budget: passes done,
+//! the memory the film and the photon map take, and the process's peak
+//! resident memory during each (Linux's VmHWM, reset before each step
+//! through /proc/self/clear_refs).
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+use vdbphoton::film::{Film, Region};
+use vdbphoton::render::{make_integrator, run_passes, Silent, Stop};
+use vdbphoton::scene::{Integrator as Choice, SceneDesc, SceneFormat};
+use vdbphoton::world::World;
+
+/// A `/proc/self/status` field in bytes.
+fn status_bytes(field: &str) -> u64 {
+    let text = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    text.lines()
+        .find(|l| l.starts_with(field))
+        .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        .map_or(0, |kib| kib * 1024)
+}
+
+/// Resets the peak resident memory (VmHWM) to the current one.
+fn reset_peak() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+fn gib(b: u64) -> String {
+    format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return;
+    }
+    let env = |k: &str, d: &str| std::env::var(k).unwrap_or_else(|_| d.to_string());
+    let dir = PathBuf::from(env("BENCH_DIR", "target/bench"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let budget: f64 = env("BENCH_BUDGET", "60").parse().unwrap();
+    let size = env("BENCH_SIZE", "1920x1080");
+    let (w, h) = size
+        .split_once('x')
+        .map(|(a, b)| (a.parse::<u32>().unwrap(), b.parse::<u32>().unwrap()))
+        .unwrap();
+    println!(
+        "{} threads, {w} x {h}, {budget} s per integrator",
+        rayon::current_num_threads()
+    );
+    for res in env("BENCH_RES", "1024").split(',') {
+        let res: u32 = res.trim().parse().unwrap();
+        let file = dir.join(format!("cloud_{res}.vdb"));
+        if !file.is_file() {
+            reset_peak();
+            let t = Instant::now();
+            let g = vdbphoton::generate::cloud(res, 1).unwrap();
+            let t_gen = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            vdbphoton::vdb::write_vdb(&file, &[vdbphoton::vdb::AnyGrid::Float(g)]).unwrap();
+            println!(
+                "res {res}: generated in {t_gen:.1} s, written in {:.1} s, peak {}",
+                t.elapsed().as_secs_f64(),
+                gib(status_bytes("VmHWM:"))
+            );
+        }
+        let bytes = std::fs::metadata(&file).map_or(0, |m| m.len());
+        // The reference scene's light and medium (sigma_t up to 22 per unit
+        // across the [-1, 1]^3 cloud, albedo 0.91, HG 0.3).
+        let text = format!(
+            r#"[render]
+width = {w}
+height = {h}
+max_bounces = 256
+[camera]
+position = [3.2, -2.8, 1.4]
+look_at = [0.0, 0.0, 0.0]
+vfov = 38.0
+[[light]]
+type = "sun"
+direction = [-0.4, -0.5, 0.75]
+irradiance = 2.0
+[environment]
+radiance = 0.1
+[[volume]]
+file = "{}"
+[volume.material]
+sigma_s = 20.0
+sigma_a = 2.0
+phase = {{ type = "hg", g = 0.3 }}
+"#,
+            file.display()
+        );
+        let mut desc = SceneDesc::from_str(&text, SceneFormat::Toml, ".").unwrap();
+        reset_peak();
+        let rss0 = status_bytes("VmRSS:");
+        let t = Instant::now();
+        let world = World::load(&desc).unwrap();
+        let t_load = t.elapsed().as_secs_f64();
+        let grid = world.media.volumes()[0].memory_bytes() as u64;
+        let voxels = world.media.volumes()[0].density().active_voxel_count();
+        println!(
+            "res {res}: file {} ({} active voxels), loaded in {t_load:.2} s, grid and majorants {}, peak during load {} (+{} over before)",
+            gib(bytes),
+            voxels,
+            gib(grid),
+            gib(status_bytes("VmHWM:")),
+            gib(status_bytes("VmHWM:").saturating_sub(rss0))
+        );
+        for choice in [Choice::Path, Choice::Photon] {
+            desc.render.integrator = choice;
+            reset_peak();
+            let before = status_bytes("VmRSS:");
+            let mut integ = make_integrator(&desc, &world).unwrap();
+            let mut film = Film::new(w, h, Region::full(w, h), false);
+            let film_bytes = Film::bytes_for((w * h) as usize, false) as u64;
+            let t = Instant::now();
+            let passes = run_passes(
+                &world,
+                integ.as_mut(),
+                &mut film,
+                7,
+                Stop::Time(Duration::from_secs_f64(budget)),
+                &Silent,
+                |_, _, _| Ok(()),
+            )
+            .unwrap();
+            let secs = t.elapsed().as_secs_f64();
+            let stored = integ
+                .attributes()
+                .into_iter()
+                .find(|(k, _)| k == "vdbphoton/photons_stored")
+                .map(|(_, v)| v)
+                .unwrap_or_else(|| "-".into());
+            let mean: f64 = film
+                .mean_rgb()
+                .iter()
+                .map(|c| c.element_sum() as f64 / 3.0)
+                .sum::<f64>()
+                / (w * h) as f64;
+            println!(
+                "res {res}: {:<6} {passes:>4} passes in {secs:6.1} s ({:.2} s a pass), film {}, peak {} (+{} over the loaded world), photons stored {stored}, image mean {mean:.5}",
+                integ.name(),
+                secs / passes.max(1) as f64,
+                gib(film_bytes),
+                gib(status_bytes("VmHWM:")),
+                gib(status_bytes("VmHWM:").saturating_sub(before)),
+            );
+        }
+    }
+}

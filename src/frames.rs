@@ -1,0 +1,261 @@
+//! A scene over frames: which frames to render, each frame's inputs and
+//! outputs (the frame patterns of [`crate::sequence`]), each frame's seed,
+//! resuming with `--skip-existing`, and failures that do not stop the other
+//! frames. Each frame is one [`render_scene`]; the CLI, the farm scripts and
+//! the Flamenco job type all go through [`render_job`].
+
+use crate::error::{Error, Result};
+use crate::render::{render_scene, RenderOptions, Reporter, Summary};
+use crate::scene::{EnvironmentDesc, SceneDesc, VolumeBounds};
+use crate::sequence::{format_frames, frame_seed, PathPattern};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// What to render of a scene besides what it says itself.
+#[derive(Debug, Clone, Default)]
+pub struct FrameJob {
+    /// The frames to render; `None`: the scene's `[render] frames`, or one
+    /// render of the scene as it is when it names no sequence.
+    pub frames: Option<Vec<u32>>,
+    /// Leave frames whose EXR exists (outputs are written atomically, so
+    /// an existing file is complete).
+    pub skip_existing: bool,
+}
+
+/// How one frame ended.
+#[derive(Debug)]
+pub enum FrameOutcome {
+    Written(Summary),
+    /// Its EXR existed (`--skip-existing`).
+    Skipped(PathBuf),
+    Failed(Error),
+}
+
+/// What a job did, frame by frame (`None`: a scene rendered without a
+/// frame number).
+#[derive(Debug, Default)]
+pub struct JobReport {
+    pub frames: Vec<(Option<u32>, FrameOutcome)>,
+}
+
+impl JobReport {
+    /// The frames that failed, by number.
+    pub fn failed(&self) -> Vec<u32> {
+        self.frames
+            .iter()
+            .filter(|(_, o)| matches!(o, FrameOutcome::Failed(_)))
+            .filter_map(|(f, _)| *f)
+            .collect()
+    }
+    /// Whether every frame was written or skipped.
+    pub fn ok(&self) -> bool {
+        !self
+            .frames
+            .iter()
+            .any(|(_, o)| matches!(o, FrameOutcome::Failed(_)))
+    }
+}
+
+/// A path's pattern, with a message naming the key when it is malformed.
+fn pattern(p: &std::path::Path) -> Result<PathPattern> {
+    PathPattern::new(p).map_err(Error::Argument)
+}
+
+/// The scene of `frame` (and `tile`): frame patterns in volume files,
+/// the environment map and the outputs replaced, and the seed derived from
+/// (seed, frame), so neighbouring frames get unrelated noise and a frame
+/// rendered alone is the frame of the sequence.
+pub fn scene_at(desc: &SceneDesc, frame: Option<u32>, tile: Option<u32>) -> Result<SceneDesc> {
+    let mut d = desc.clone();
+    for v in &mut d.volumes {
+        v.file = pattern(&v.file)?.expand(frame, None);
+    }
+    if let EnvironmentDesc::Map { path, .. } = &mut d.environment {
+        *path = pattern(path)?.expand(frame, None);
+    }
+    let r = &mut d.render;
+    r.output = pattern(&r.output)?.expand(frame, tile);
+    if let Some(p) = &r.preview {
+        r.preview = Some(pattern(p)?.expand(frame, tile));
+    }
+    if let Some(f) = frame {
+        r.seed = frame_seed(r.seed, f);
+    }
+    Ok(d)
+}
+
+/// The input paths of a scene that name a sequence, with their patterns.
+fn sequence_inputs(desc: &SceneDesc) -> Result<Vec<PathPattern>> {
+    let mut out = Vec::new();
+    for v in &desc.volumes {
+        let p = pattern(&v.file)?;
+        if p.has_frame() {
+            out.push(p);
+        }
+    }
+    if let EnvironmentDesc::Map { path, .. } = &desc.environment {
+        let p = pattern(path)?;
+        if p.has_frame() {
+            out.push(p);
+        }
+    }
+    Ok(out)
+}
+
+/// Checks the frames and outputs of a job before anything renders, and
+/// returns the frames to render (`None`: one render without a frame).
+fn plan(desc: &SceneDesc, job: &FrameJob, tile: Option<u32>) -> Result<Option<Vec<u32>>> {
+    let r = &desc.render;
+    let inputs = sequence_inputs(desc)?;
+    let output = pattern(&r.output)?;
+    let preview = r.preview.as_deref().map(pattern).transpose()?;
+    let frames = job.frames.clone().or_else(|| r.frames.clone());
+    let sequence = inputs
+        .first()
+        .map(|p| p.expand(None, None))
+        .or_else(|| output.has_frame().then(|| r.output.clone()))
+        .or_else(|| {
+            preview
+                .as_ref()
+                .filter(|p| p.has_frame())
+                .map(|p| p.expand(None, None))
+        });
+    if let (None, Some(seq)) = (&frames, &sequence) {
+        return Err(Error::Argument(format!(
+            "'{}' names a frame sequence: give --frame N or --frames LIST (e.g. 1-40), or [render] frames in the scene",
+            seq.display()
+        )));
+    }
+    if let Some(f) = &frames {
+        if f.len() > 1 {
+            for (what, p) in [("output", Some(&output)), ("preview", preview.as_ref())] {
+                if let Some(p) = p.filter(|p| !p.has_frame()) {
+                    return Err(Error::Argument(format!(
+                        "the {what} '{}' has no frame number ({{frame:04}} or ####): the {} frames would overwrite each other",
+                        p.expand(None, None).display(),
+                        f.len()
+                    )));
+                }
+            }
+        }
+    }
+    for (what, p) in [("output", Some(&output)), ("preview", preview.as_ref())] {
+        if let Some(p) = p.filter(|p| p.has_tile() && tile.is_none()) {
+            return Err(Error::Argument(format!(
+                "the {what} '{}' holds {{tile}}, which only a --tile render fills in",
+                p.expand(None, None).display()
+            )));
+        }
+    }
+    Ok(frames)
+}
+
+/// Volumes whose `bounds = "sequence"` get the box of every frame of their
+/// sequence now, so automatic framing stays fixed over the frames.
+fn fix_sequence_bounds(desc: &mut SceneDesc) -> Result<()> {
+    for v in &mut desc.volumes {
+        if v.bounds != VolumeBounds::Sequence {
+            continue;
+        }
+        let p = pattern(&v.file)?;
+        v.bounds = if p.has_frame() {
+            match crate::world::sequence_file_box(&p, &v.density_grid) {
+                Some(b) => VolumeBounds::Box(b),
+                None => VolumeBounds::Active,
+            }
+        } else {
+            VolumeBounds::Active
+        };
+    }
+    Ok(())
+}
+
+/// Renders a validated scene over the frames of `job` (or once), each
+/// frame to its own outputs. A frame whose input is missing or damaged
+/// fails with a message naming it and the others still render; the report
+/// says how each ended. An interruption (SIGINT, SIGTERM) stops the whole
+/// job and is returned as an error; so is a job that cannot start (no
+/// frames, outputs that would overwrite each other, no input file for any
+/// frame).
+pub fn render_job(
+    desc: &SceneDesc,
+    job: &FrameJob,
+    opts: &RenderOptions,
+    reporter: &dyn Reporter,
+) -> Result<JobReport> {
+    let tile = opts.tile.map(|t| t.0);
+    let Some(frames) = plan(desc, job, tile)? else {
+        let d = scene_at(desc, None, tile)?;
+        let outcome = if job.skip_existing && d.render.output.is_file() {
+            FrameOutcome::Skipped(d.render.output.clone())
+        } else {
+            FrameOutcome::Written(render_scene(&d, opts, reporter)?)
+        };
+        return Ok(JobReport {
+            frames: vec![(None, outcome)],
+        });
+    };
+    let mut desc = desc.clone();
+    fix_sequence_bounds(&mut desc)?;
+    // Inputs missing for every frame: most likely a wrong pattern or
+    // frame range, which one message says better than one per frame.
+    let inputs = sequence_inputs(&desc)?;
+    for p in &inputs {
+        if !frames.iter().any(|&f| p.expand(Some(f), None).is_file()) {
+            let found = p.existing_frames();
+            let hint = if found.is_empty() {
+                "no frame of it exists".to_string()
+            } else {
+                format!("frames that exist: {}", format_frames(&found))
+            };
+            let which = match frames.as_slice() {
+                [f] => format!("frame {f} ('{}')", p.expand(Some(*f), None).display()),
+                _ => format!("frames {}", format_frames(&frames)),
+            };
+            return Err(Error::Argument(format!(
+                "the sequence '{}' has no file for {which} ({hint})",
+                p.expand(None, None).display(),
+            )));
+        }
+    }
+    let mut report = JobReport::default();
+    for (i, &frame) in frames.iter().enumerate() {
+        let t0 = Instant::now();
+        reporter.frame_started(frame, i, frames.len());
+        let outcome = match render_frame(&desc, frame, job, opts, reporter, &inputs) {
+            Ok(o) => o,
+            Err(e) if e.is_interrupt() => return Err(e),
+            Err(e) => FrameOutcome::Failed(e),
+        };
+        reporter.frame_done(frame, &outcome, t0.elapsed().as_secs_f64());
+        report.frames.push((Some(frame), outcome));
+    }
+    Ok(report)
+}
+
+fn render_frame(
+    desc: &SceneDesc,
+    frame: u32,
+    job: &FrameJob,
+    opts: &RenderOptions,
+    reporter: &dyn Reporter,
+    inputs: &[PathPattern],
+) -> Result<FrameOutcome> {
+    for p in inputs {
+        let path = p.expand(Some(frame), None);
+        if !path.is_file() {
+            return Err(Error::file(
+                &path,
+                format!("frame {frame} of the sequence does not exist"),
+            ));
+        }
+    }
+    let d = scene_at(desc, Some(frame), opts.tile.map(|t| t.0))?;
+    if job.skip_existing && d.render.output.is_file() {
+        return Ok(FrameOutcome::Skipped(d.render.output.clone()));
+    }
+    let mut o = opts.clone();
+    o.attributes
+        .push(("vdbphoton/frame".into(), frame.to_string()));
+    Ok(FrameOutcome::Written(render_scene(&d, &o, reporter)?))
+}
