@@ -68,7 +68,12 @@ fn pattern(p: &std::path::Path) -> Result<PathPattern> {
 pub fn scene_at(desc: &SceneDesc, frame: Option<u32>, tile: Option<u32>) -> Result<SceneDesc> {
     let mut d = desc.clone();
     for v in &mut d.volumes {
-        v.file = pattern(&v.file)?.expand(frame, None);
+        let p = pattern(&v.file)?;
+        let f = match frame {
+            Some(f) if p.has_frame() => Some(offset_frame(f, v.frame_offset, &v.file)?),
+            f => f,
+        };
+        v.file = p.expand(f, None);
     }
     if let EnvironmentDesc::Map { path, .. } = &mut d.environment {
         *path = pattern(path)?.expand(frame, None);
@@ -84,19 +89,51 @@ pub fn scene_at(desc: &SceneDesc, frame: Option<u32>, tile: Option<u32>) -> Resu
     Ok(d)
 }
 
-/// The input paths of a scene that name a sequence, with their patterns.
-fn sequence_inputs(desc: &SceneDesc) -> Result<Vec<PathPattern>> {
+/// Frame `frame` of a volume read `offset` frames later (`frame_offset`).
+fn offset_frame(frame: u32, offset: i64, file: &std::path::Path) -> Result<u32> {
+    u32::try_from(frame as i64 + offset).map_err(|_| {
+        Error::file(
+            file,
+            format!("frame {frame} with frame_offset {offset} is before frame 0"),
+        )
+    })
+}
+
+/// An input path of a scene that names a sequence, and the offset of its
+/// frames.
+struct Input {
+    pattern: PathPattern,
+    offset: i64,
+}
+
+impl Input {
+    /// The file of render frame `frame`, if the offset keeps it at 0 or
+    /// after.
+    fn path(&self, frame: u32) -> Option<PathBuf> {
+        let f = u32::try_from(frame as i64 + self.offset).ok()?;
+        Some(self.pattern.expand(Some(f), None))
+    }
+}
+
+/// The input paths of a scene that name a sequence.
+fn sequence_inputs(desc: &SceneDesc) -> Result<Vec<Input>> {
     let mut out = Vec::new();
     for v in &desc.volumes {
         let p = pattern(&v.file)?;
         if p.has_frame() {
-            out.push(p);
+            out.push(Input {
+                pattern: p,
+                offset: v.frame_offset,
+            });
         }
     }
     if let EnvironmentDesc::Map { path, .. } = &desc.environment {
         let p = pattern(path)?;
         if p.has_frame() {
-            out.push(p);
+            out.push(Input {
+                pattern: p,
+                offset: 0,
+            });
         }
     }
     Ok(out)
@@ -112,7 +149,7 @@ fn plan(desc: &SceneDesc, job: &FrameJob, tile: Option<u32>) -> Result<Option<Ve
     let frames = job.frames.clone().or_else(|| r.frames.clone());
     let sequence = inputs
         .first()
-        .map(|p| p.expand(None, None))
+        .map(|i| i.pattern.expand(None, None))
         .or_else(|| output.has_frame().then(|| r.output.clone()))
         .or_else(|| {
             preview
@@ -200,21 +237,29 @@ pub fn render_job(
     // Inputs missing for every frame: most likely a wrong pattern or
     // frame range, which one message says better than one per frame.
     let inputs = sequence_inputs(&desc)?;
-    for p in &inputs {
-        if !frames.iter().any(|&f| p.expand(Some(f), None).is_file()) {
-            let found = p.existing_frames();
+    for i in &inputs {
+        if !frames
+            .iter()
+            .any(|&f| i.path(f).is_some_and(|p| p.is_file()))
+        {
+            let found = i.pattern.existing_frames();
             let hint = if found.is_empty() {
                 "no frame of it exists".to_string()
             } else {
-                format!("frames that exist: {}", format_frames(&found))
+                format!("its files are frames {}", format_frames(&found))
+            };
+            let offset = if i.offset != 0 {
+                format!(" (frame_offset {})", i.offset)
+            } else {
+                String::new()
             };
             let which = match frames.as_slice() {
-                [f] => format!("frame {f} ('{}')", p.expand(Some(*f), None).display()),
-                _ => format!("frames {}", format_frames(&frames)),
+                [f] => format!("frame {f}{offset}"),
+                _ => format!("frames {}{offset}", format_frames(&frames)),
             };
             return Err(Error::Argument(format!(
-                "the sequence '{}' has no file for {which} ({hint})",
-                p.expand(None, None).display(),
+                "the sequence '{}' has no file for {which}; {hint}",
+                i.pattern.expand(None, None).display(),
             )));
         }
     }
@@ -239,10 +284,18 @@ fn render_frame(
     job: &FrameJob,
     opts: &RenderOptions,
     reporter: &dyn Reporter,
-    inputs: &[PathPattern],
+    inputs: &[Input],
 ) -> Result<FrameOutcome> {
-    for p in inputs {
-        let path = p.expand(Some(frame), None);
+    for i in inputs {
+        let Some(path) = i.path(frame) else {
+            return Err(Error::file(
+                &i.pattern.expand(None, None),
+                format!(
+                    "frame {frame} with frame_offset {} is before frame 0",
+                    i.offset
+                ),
+            ));
+        };
         if !path.is_file() {
             return Err(Error::file(
                 &path,

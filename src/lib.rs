@@ -15,6 +15,7 @@ pub mod integrator;
 pub mod interrupt;
 pub mod light;
 pub mod medium;
+pub mod memory;
 pub mod merge;
 pub mod phase;
 pub mod photon;

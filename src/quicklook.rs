@@ -121,6 +121,8 @@ pub fn scene_for(file: &Path) -> Result<(SceneDesc, Vec<String>)> {
             transform: DAffine3::IDENTITY,
             material: MaterialDesc::Principled(material),
             bounds: VolumeBounds::Active,
+            frame_offset: 0,
+            temperature_from_flame: None,
         }],
     };
     Ok((desc, notes))

@@ -68,15 +68,6 @@ pub struct RenderOptions {
     pub view: crate::image::View,
 }
 
-/// Bytes of memory the machine has available now (Linux's MemAvailable),
-/// when it can be read.
-pub fn available_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
 /// Bytes a stored photon takes at the peak of a pass (the photon, its
 /// radius, its box while the BVH is built, the BVH and the reordered copy;
 /// `cargo bench --bench photon` measured 128 bytes after the build).
@@ -105,7 +96,7 @@ fn check_memory(
     photon: bool,
     limit: Option<u64>,
 ) -> Result<()> {
-    let Some(limit) = limit.or_else(available_memory) else {
+    let Some(limit) = limit.or_else(crate::memory::available) else {
         return Ok(());
     };
     let r = &desc.render;
@@ -128,7 +119,7 @@ fn check_memory(
             gib(photons),
             gib(grids),
             gib(limit),
-            if limit == available_memory().unwrap_or(0) { "is available" } else { "is the limit" }
+            if crate::memory::limit().is_some() { "is the limit" } else { "is available" }
         )));
     }
     Ok(())
@@ -467,6 +458,8 @@ pub fn render_scene(
         return Err(Error::Argument("--threads must be at least 1".into()));
     }
     let wants_photons = r.integrator != IntegratorChoice::Path;
+    // Grids check what is left of the limit before they load.
+    crate::memory::set_limit(opts.max_memory);
     check_memory(desc, region, 0, wants_photons, opts.max_memory)?;
     if region.pixels() as u64 > LARGE_IMAGE_PIXELS {
         let film = Film::bytes_for(region.pixels(), r.aovs) as u64

@@ -191,7 +191,21 @@ fn load_volume(
         temperature: v
             .temperature_grid
             .as_deref()
-            .map(|n| read_scalar(&f, n))
+            .map(|n| {
+                let g = read_scalar(&f, n)?;
+                match v.temperature_from_flame {
+                    // Blender's fluid domain temperature attribute
+                    // (`rna_FluidModifier_temperature_grid_get`).
+                    Some([ignition, max]) => g.map_values(n, |flame: f32| {
+                        if flame > 0.01 {
+                            ignition + flame * (max - ignition)
+                        } else {
+                            0.0
+                        }
+                    }),
+                    None => Ok(g),
+                }
+            })
             .transpose()?,
         flame: v
             .flame_grid

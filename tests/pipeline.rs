@@ -225,7 +225,7 @@ fn sequence_mistakes_are_refused_before_anything_renders() {
     assert_eq!(r.code, 1);
     assert!(
         r.stderr.contains("no file for frames 10-12")
-            && r.stderr.contains("frames that exist: 1-2"),
+            && r.stderr.contains("its files are frames 1-2"),
         "{}",
         r.stderr
     );
@@ -259,6 +259,77 @@ fn sequence_mistakes_are_refused_before_anything_renders() {
         assert!(r.stderr.contains("frame"), "{bad}: {}", r.stderr);
     }
     assert!(common::dir_entries(dir).iter().all(|n| n != "out"));
+}
+
+#[test]
+fn frame_offset_shifts_the_frames_a_volume_reads() {
+    // Film frames 1001-1002 read cache frames 1-2 (Blender's Start Frame
+    // and Offset).
+    let d = common::tempdir();
+    let dir = d.path();
+    sequence(dir, &[1, 2]);
+    let p = scene(dir, "path", "");
+    let text = std::fs::read_to_string(&p).unwrap().replace(
+        "bounds = \"sequence\"",
+        "bounds = \"sequence\"\nframe_offset = -1000",
+    );
+    std::fs::write(&p, text).unwrap();
+    let r = ok(dir, &["render", "seq.toml", "--frames", "1001-1002", "-q"]);
+    assert_eq!(saved(&r.stdout).len(), 2, "{}", r.stdout);
+    assert!(dir.join("out/f_1001.exr").is_file() && dir.join("out/f_1002.exr").is_file());
+    // Frame 999 would read frame -1.
+    let r = run(dir, &["render", "seq.toml", "--frame", "999", "-q"]);
+    assert_eq!(r.code, 1);
+    assert!(r.stderr.contains("frame_offset"), "{}", r.stderr);
+}
+
+#[test]
+fn temperature_from_flame_is_blenders_domain_temperature() {
+    // The generated plume's `temperature` grid is Blender's domain
+    // temperature made from its `flame` grid with ignition 1.5 and maximum
+    // 3 (`generate.rs`): making it from the flame grid gives the same
+    // image.
+    let d = common::tempdir();
+    let dir = d.path();
+    ok(dir, &["generate", "plume", "p.vdb", "--res", "24"]);
+    let scene = |name: &str, grid: &str| {
+        std::fs::write(
+            dir.join(name),
+            format!(
+                "[render]\nwidth = 24\nheight = 32\nspp = 2\nintegrator = \"path\"\n\
+                 [camera]\nframing = \"auto\"\n\
+                 [[volume]]\nfile = \"p.vdb\"\ntemperature_grid = \"{grid}\"\n{}",
+                if grid == "flame" {
+                    "temperature_from_flame = [1.5, 3.0]\n"
+                } else {
+                    ""
+                }
+            ),
+        )
+        .unwrap();
+    };
+    scene("t.toml", "temperature");
+    scene("f.toml", "flame");
+    ok(dir, &["render", "t.toml", "-o", "t.exr", "-q"]);
+    ok(dir, &["render", "f.toml", "-o", "f.exr", "-q"]);
+    let (a, b) = (pixels(&dir.join("t.exr")), pixels(&dir.join("f.exr")));
+    let mean: f32 = a.iter().map(|p| p.x).sum::<f32>() / a.len() as f32;
+    assert!(mean > 1e-3, "the fire does not glow: {mean}");
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (*x - *y).abs().max_element() <= 1e-5 * (1.0 + x.abs().max_element()),
+            "{x} {y}"
+        );
+    }
+    // Without a temperature grid to make it from, the key is refused.
+    std::fs::write(
+        dir.join("n.toml"),
+        "[[volume]]\nfile = \"p.vdb\"\ntemperature_from_flame = [1.5, 3.0]\n",
+    )
+    .unwrap();
+    let r = run(dir, &["render", "n.toml", "-q"]);
+    assert_eq!(r.code, 1);
+    assert!(r.stderr.contains("needs temperature_grid"), "{}", r.stderr);
 }
 
 #[test]
@@ -380,6 +451,20 @@ fn merge_refuses_what_is_not_one_frame() {
     );
     let e = err(&["merge", "bad.exr", &t[0], &t[1], &t[2], "o3.exr"]);
     assert!(e.contains("scene_hash") && e.contains("o3.exr"), "{e}");
+    // Tiles of different seeds: each seed's tiles must cover the frame on
+    // their own (renders of other seeds are averaged, never mixed).
+    ok(
+        dir,
+        &[
+            "render", "seq.toml", "--frame", "1", "--tile", "3/4", "--seed", "99", "-o", "s3.exr",
+            "-q",
+        ],
+    );
+    let e = err(&["merge", "bad.exr", &t[0], &t[1], &t[2], "s3.exr"]);
+    assert!(
+        e.contains("no input of seed") && e.contains("covers pixels"),
+        "{e}"
+    );
     // An empty list, a file that is not an EXR.
     let r = run(dir, &["merge", "bad.exr"]);
     assert_ne!(r.code, 0);

@@ -209,6 +209,29 @@ fn a_render_that_will_not_fit_is_refused_before_it_starts() {
         "{err}"
     );
     assert!(common::dir_entries(dir.path()).is_empty());
+    // A grid that does not fit in what is left of the limit is refused
+    // before OpenVDB allocates its tree, naming the file and the grid (the
+    // process itself holds more than 12 MiB, so nothing is left).
+    let (code, _, err) = render(&[
+        &format!("{SCENES}/cloud.toml"),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--integrator",
+        "path",
+        "--max-memory",
+        "12M",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("cloud.vdb', grid 'density'") && err.contains("left of --max-memory"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(common::dir_entries(dir.path()).is_empty());
     let (code, _, err) = render(&[&format!("{SCENES}/cloud.toml"), "--max-memory", "lots"]);
     assert_eq!(code, 1);
     assert!(err.contains("amount of memory"), "{err}");

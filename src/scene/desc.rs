@@ -225,6 +225,15 @@ pub struct VolumeDesc {
     pub material: MaterialDesc,
     /// The box automatic camera framing uses for this volume.
     pub bounds: VolumeBounds,
+    /// Frame `f` of a render reads frame `f + frame_offset` of this
+    /// volume's sequence (Blender's Start Frame and Offset, or a fluid
+    /// cache's offset).
+    pub frame_offset: i64,
+    /// `[ignition, max_temp]`: the temperature grid is made from the flame
+    /// grid named by `temperature_grid` as Blender makes a fluid domain's
+    /// temperature attribute (`ignition + flame · (max_temp − ignition)`
+    /// where flame > 0.01, else 0), instead of read as it is.
+    pub temperature_from_flame: Option<[f32; 2]>,
 }
 
 /// `[[volume]] bounds`: the box of a volume that automatic framing

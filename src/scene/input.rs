@@ -227,6 +227,8 @@ struct VolumeIn {
     transform: Option<TransformIn>,
     material: Option<MaterialIn>,
     bounds: Option<BoundsIn>,
+    frame_offset: Option<i64>,
+    temperature_from_flame: Option<[f64; 2]>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -666,6 +668,10 @@ impl VolumeIn {
                 .unwrap_or_default()
                 .into_desc(&with(path, "material"), fire)?,
             bounds: self.bounds.map_or(VolumeBounds::Active, |b| b.0),
+            frame_offset: self.frame_offset.unwrap_or(0),
+            temperature_from_flame: self
+                .temperature_from_flame
+                .map(|[a, b]| [a as f32, b as f32]),
         })
     }
 }

@@ -159,6 +159,32 @@ impl SceneDesc {
             }
             validate_material(&with(&path, "material"), &volume.material)?;
             pattern(&with(&path, "file"), &volume.file)?;
+            if let Some([ignition, max]) = volume.temperature_from_flame {
+                let p = with(&path, "temperature_from_flame");
+                if volume.temperature_grid.is_none() {
+                    return err(
+                        p,
+                        "needs temperature_grid (the flame grid the temperature is made from, \"flame\" in Blender's caches)",
+                    );
+                }
+                non_negative(&p, ignition)?;
+                if !(max.is_finite() && max >= ignition) {
+                    return err(
+                        p,
+                        format!("[ignition, max_temp] needs max_temp >= ignition, got [{ignition}, {max}]"),
+                    );
+                }
+            }
+            if volume.frame_offset.unsigned_abs() > crate::sequence::MAX_FRAME as u64 {
+                return err(
+                    with(&path, "frame_offset"),
+                    format!(
+                        "must be within ±{}, got {}",
+                        crate::sequence::MAX_FRAME,
+                        volume.frame_offset
+                    ),
+                );
+            }
             if let VolumeBounds::Box([lo, hi]) = volume.bounds {
                 if !(lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()) {
                     return err(

@@ -93,15 +93,6 @@ fn read_range(path: &Path, offset: u64, len: u64) -> Result<Vec<u8>> {
     Ok(buf)
 }
 
-/// Memory the system has available, from `/proc/meminfo` (`None` where it
-/// cannot be read).
-fn available_memory() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
 fn path_str(path: &Path) -> Result<&str> {
     path.to_str()
         .ok_or_else(|| Error::file(path, "the path is not valid UTF-8"))
@@ -328,17 +319,22 @@ impl VdbFile {
         // can describe far more nodes than it stores values).
         let need =
             tree.openvdb_bytes(kind.0) + tree.leaves as u64 * (512 * 4 * channels as u64 + 96);
-        if let Some(avail) = available_memory() {
+        if let Some(avail) = crate::memory::budget() {
             if need > avail {
                 return Err(Error::grid(
                     &self.path,
                     &d.name,
                     format!(
-                        "loading it would take about {:.1} GiB ({} leaves, {} internal nodes); {:.1} GiB are available",
+                        "loading it would take about {:.1} GiB ({} leaves, {} internal nodes); {:.1} GiB {}",
                         need as f64 / (1u64 << 30) as f64,
                         tree.leaves,
                         tree.internal_nodes.0 + tree.internal_nodes.1,
-                        avail as f64 / (1u64 << 30) as f64
+                        avail as f64 / (1u64 << 30) as f64,
+                        if crate::memory::limit().is_some() {
+                            "are left of --max-memory"
+                        } else {
+                            "are available"
+                        }
                     ),
                 ));
             }

@@ -1,0 +1,1430 @@
+"""Export the current Blender scene as a vdbphoton scene file (TOML).
+
+Usage (any of):
+
+    blender -b FILE.blend -P tools/blender/vdbphoton_export.py -- OUT.toml \
+        [--frames A-B] [--output 'renders/frame_{frame:04}.exr'] [--preview P.png | --no-preview]
+        [--scene NAME] [--temperature-from-flame]
+    VENV/bin/python tools/blender/vdbphoton_export.py FILE.blend OUT.toml [same options]
+    as an add-on: File > Export > vdbphoton scene (.toml)
+
+VENV is a Python 3.11 venv with `pip install bpy==5.0.1`.
+
+What is exported (docs/scene.md and the frame/camera keys of the pipeline
+CLI):
+  [render]   width/height = resolution x percentage; spp = Cycles samples;
+             seed; max_bounces = min(Volume, Total bounces) + 1 (Cycles
+             counts bounces after the first scattering, vdbphoton counts
+             scattering events); frames = the scene's frame range (or
+             --frames); output/preview = Blender's output path with '#'
+             for the frame (or --output); exposure = the view exposure.
+  [camera]   Blender's camera: matrix (matrix_world, scale removed),
+             focal_length, sensor_width/height, sensor_fit, shift_x/y.
+             Orthographic and panoramic cameras are refused.
+  [[light]]  sun (Strength -> irradiance W/m^2, Angle), point (Power P W ->
+             intensity P/(4 pi) W/sr), spot (the same; Spot Size ->
+             cone_angle, Blend -> blend); colour x strength (x blackbody
+             colour when "Temperature" is used, x 2^exposure, x the Volume
+             factor). Area lights and soft (radius > 0) lights are warned
+             about.
+  [environment]  a World whose Background (or Emission) has a constant
+             Color (x Strength), or an Environment Texture (image file,
+             Strength, Z rotation of a Mapping node). Anything else (sky
+             texture, other nodes) is warned about, naming the world and
+             node.
+  [[volume]] every Volume object (its VDB file, absolute; an image
+             sequence becomes a '#' pattern) and every gas fluid domain
+             (its cache <cache_directory>/data/fluid_data_####.vdb, placed
+             as Blender renders it, with bounds = the domain box). The
+             object's Principled Volume (or Volume Scatter + Absorption)
+             material becomes [volume.material], every key written. A
+             Volume object with Space = Object (Blender's default) has its
+             densities and emission scaled by 1 / |M (1,1,1)/sqrt 3|, as
+             Cycles does. A domain's `temperature` attribute is derived by
+             Blender from the flame grid; the cache's `temperature` grid
+             (the heat) is exported instead, with a warning
+             (--temperature-from-flame writes the proposed key
+             temperature_from_flame). A sequence or cache whose file number
+             is not the frame gets frame_offset (file = frame + offset),
+             also a proposed key.
+
+Warnings go to stderr as `vdbphoton_export: warning: ...`, each naming the
+object, material and node concerned. Fatal problems (no camera, nothing
+to export, output not writable) print one line `vdbphoton_export: error:
+...` and exit with status 1 (2 for a bad command line).
+
+Fluid domain placement (verified against Cycles 5.0.1 and 3.4.1 renders of
+the shared Blender cache, tools/blender/README.md): Blender sets p0 = the
+minimum of the domain mesh's local bounding box, cell = local size /
+resolution per axis (the largest axis of size x object scale gets the
+domain's Resolution Divisions, the others int(size*scale + 0.5), at least
+4), and renders cache voxel i at local p0 + (i + 0.5) * cell. The cache's
+own transform F (index -> file space, a uniform scale) is read from the
+file, so the exported transform is
+
+    matrix_world . Translate(p0 + cell/2) . Scale(cell) . F^-1
+"""
+
+bl_info = {
+    "name": "vdbphoton scene export",
+    "author": "vdbphoton",
+    "version": (1, 0, 0),
+    "blender": (3, 4, 0),
+    "location": "File > Export > vdbphoton scene (.toml)",
+    "description": "Export Volume objects, smoke domains, camera, lights and world "
+                   "as a vdbphoton scene file",
+    "category": "Import-Export",
+}
+
+import math
+import os
+import re
+import struct
+import sys
+
+import bpy
+from mathutils import Matrix, Vector
+
+PREFIX = 'vdbphoton_export'
+
+# Blender's default attribute names of a fluid domain (Cycles' standard
+# volume attributes) -> the grids of a Mantaflow OpenVDB cache and the
+# factor between them. Measured on the shared cache (Blender 3.4.1 bake, read
+# by Blender 3.4.1 and 5.0.1): the domain's `heat` attribute is the cache's
+# `temperature` grid / 2 exactly; `density` and `flame` are the grids as
+# stored. `temperature` is special: Blender derives it from the flame
+# (flame_ignition + flame * (flame_max_temp - flame_ignition) where flame >
+# 0.01, else 0), see domain_attribute().
+DOMAIN_GRIDS = {'density': ('density', 1.0), 'flame': ('flame', 1.0),
+                'heat': ('temperature', 0.5)}
+
+
+class ExportError(Exception):
+    pass
+
+
+def f32(x):
+    return struct.unpack('f', struct.pack('f', x))[0]
+
+
+# ------------------------------------------------------------------ TOML
+
+def toml_str(s):
+    out = ['"']
+    for ch in s:
+        if ch == '"':
+            out.append('\\"')
+        elif ch == '\\':
+            out.append('\\\\')
+        elif ord(ch) < 0x20 or ord(ch) == 0x7f:
+            out.append('\\u%04x' % ord(ch))
+        else:
+            out.append(ch)
+    out.append('"')
+    return ''.join(out)
+
+
+def toml_num(x):
+    if isinstance(x, bool):
+        return 'true' if x else 'false'
+    if isinstance(x, int):
+        return str(x)
+    x = float(x)
+    if not math.isfinite(x):
+        raise ExportError(f'cannot write the non-finite number {x}')
+    s = repr(x + 0.0)
+    if '.' not in s and 'e' not in s:
+        s += '.0'
+    return s
+
+
+def toml_value(v):
+    if isinstance(v, str):
+        return toml_str(v)
+    if isinstance(v, (list, tuple)):
+        return '[' + ', '.join(toml_value(x) for x in v) + ']'
+    if isinstance(v, dict):
+        return '{ ' + ', '.join(f'{k} = {toml_value(x)}' for k, x in v.items()) + ' }'
+    return toml_num(v)
+
+
+def to_toml(doc):
+    """doc: {'header': [comment lines], 'render': {}, 'camera': {},
+    'light': [{}], 'environment': {} | None, 'volume': [{'_comment': str,
+    ..., 'material': {}}]}"""
+    lines = [f'# {c}' for c in doc['header']]
+
+    def table(name, t):
+        lines.append('')
+        if t.get('_comment'):
+            lines.append(f"# {t['_comment']}")
+        lines.append(f'[{name}]')
+        for k, v in t.items():
+            if not k.startswith('_'):
+                lines.append(f'{k} = {toml_value(v)}')
+
+    table('render', doc['render'])
+    table('camera', doc['camera'])
+    for L in doc['light']:
+        lines.append('')
+        if L.get('_comment'):
+            lines.append(f"# {L['_comment']}")
+        lines.append('[[light]]')
+        for k, v in L.items():
+            if not k.startswith('_'):
+                lines.append(f'{k} = {toml_value(v)}')
+    if doc['environment'] is not None:
+        table('environment', doc['environment'])
+    for v in doc['volume']:
+        lines.append('')
+        for c in v.get('_comment', []):
+            lines.append(f'# {c}')
+        lines.append('[[volume]]')
+        for k, x in v.items():
+            if k.startswith('_') or k == 'material':
+                continue
+            lines.append(f'{k} = {toml_value(x)}')
+        lines.append('[volume.material]')
+        for k, x in v['material'].items():
+            lines.append(f'{k} = {toml_value(x)}')
+    return '\n'.join(lines) + '\n'
+
+
+# ------------------------------------------------------------- utilities
+
+def rgb3(c):
+    return [float(c[0]), float(c[1]), float(c[2])]
+
+
+def g7(x):
+    """A float32 value with the digits it has (7 significant)."""
+    return float('%.7g' % float(x)) + 0.0
+
+
+def rounded(v, digits=7):
+    fmt = '%%.%dg' % digits
+    return [float(fmt % float(x)) + 0.0 for x in v]
+
+
+def matrix_rows(m, digits=9):
+    fmt = '%%.%dg' % digits
+    rows = [[float(fmt % float(m[i][j])) + 0.0 for j in range(4)] for i in range(4)]
+    rows[3] = [0.0, 0.0, 0.0, 1.0]
+    return rows
+
+
+def frame_range_text(start, end, step):
+    if start == end:
+        return str(start)
+    s = f'{start}-{end}'
+    return s + (f':{step}' if step != 1 else '')
+
+
+FRAMES_RE = re.compile(r'^\s*-?\d+(\s*-\s*-?\d+(\s*:\s*\d+)?)?(\s*,\s*-?\d+(\s*-\s*-?\d+(\s*:\s*\d+)?)?)*\s*$')
+
+
+def expand_frames(text):
+    out = []
+    for part in text.split(','):
+        part = part.strip()
+        step = 1
+        if ':' in part:
+            part, s = part.split(':')
+            step = max(1, int(s))
+        m = re.match(r'^(-?\d+)\s*(?:-\s*(-?\d+))?$', part.strip())
+        a = int(m.group(1))
+        b = int(m.group(2)) if m.group(2) is not None else a
+        out.extend(range(a, b + 1, step))
+    return out
+
+
+def compress_frames(frames):
+    frames = sorted(set(frames))
+    runs, i = [], 0
+    while i < len(frames):
+        j = i
+        while j + 1 < len(frames) and frames[j + 1] == frames[j] + 1:
+            j += 1
+        runs.append(str(frames[i]) if i == j else f'{frames[i]}-{frames[j]}')
+        i = j + 1
+    return ','.join(runs)
+
+
+def sequence_pattern(path):
+    """Blender's BLI_path_frame_get: the last run of digits in the file name
+    (before its extension). Returns (pattern with '#' * digits, number,
+    digits) or None."""
+    d, name = os.path.split(path)
+    stem, ext = os.path.splitext(name)
+    m = None
+    for m in re.finditer(r'\d+', stem):
+        pass
+    if m is None:
+        return None
+    pat = stem[:m.start()] + '#' * len(m.group()) + stem[m.end():] + ext
+    return os.path.join(d, pat), int(m.group()), len(m.group())
+
+
+def pattern_path(pattern, frame):
+    def sub(m):
+        return str(frame).zfill(len(m.group()))
+    d, name = os.path.split(pattern)
+    return os.path.join(d, re.sub(r'#+', sub, name))
+
+
+# ---------------------------------------------------------------- exporter
+
+class Exporter:
+    def __init__(self, scene, view_layer=None, frames=None, output=None, preview=None,
+                 no_preview=False, temperature_from_flame=False, warn=None, blend_path=None):
+        self.scene = scene
+        self.view_layer = view_layer or scene.view_layers[0]
+        self.frames_arg = frames
+        self.output_arg = output
+        self.preview_arg = preview
+        self.no_preview = no_preview
+        self.temperature_from_flame = temperature_from_flame
+        self.warnings = []
+        self.notes = []
+        self._warn_cb = warn
+        self.blend_path = blend_path or bpy.data.filepath
+
+    def warn(self, msg):
+        self.warnings.append(msg)
+        if self._warn_cb:
+            self._warn_cb('warning', msg)
+
+    def note(self, msg):
+        self.notes.append(msg)
+        if self._warn_cb:
+            self._warn_cb('note', msg)
+
+    # -- visibility
+
+    def render_objects(self):
+        """Objects Blender renders in this view layer (excluded or
+        render-disabled collections and hide_render objects left out)."""
+        visible = set()
+
+        def walk(lc, parent_ok):
+            ok = parent_ok and not lc.exclude and not lc.collection.hide_render
+            if ok:
+                for o in lc.collection.objects:
+                    visible.add(o.name_full)
+            for c in lc.children:
+                walk(c, ok)
+
+        walk(self.view_layer.layer_collection, True)
+        out = []
+        for o in self.scene.objects:
+            if o.name_full in visible and not o.hide_render:
+                out.append(o)
+        return out
+
+    # -- render
+
+    def export_render(self):
+        sc = self.scene
+        r = sc.render
+        width = r.resolution_x * r.resolution_percentage // 100
+        height = r.resolution_y * r.resolution_percentage // 100
+        if width < 1 or height < 1:
+            raise ExportError(f'render size {width} x {height} is empty')
+        out = {'width': width, 'height': height}
+        cy = getattr(sc, 'cycles', None)
+        if r.engine != 'CYCLES':
+            self.note(f"scene '{sc.name}' renders with {r.engine}; samples and bounces are "
+                      "taken from its Cycles settings")
+        if cy is not None:
+            out['spp'] = max(1, int(cy.samples))
+            out['seed'] = max(0, int(cy.seed))
+            vb = int(cy.volume_bounces)
+            tb = int(cy.max_bounces)
+            out['max_bounces'] = min(vb, tb) + 1
+        if r.use_border:
+            self.warn(f"scene '{sc.name}': render region (border) is not exported; "
+                      "the whole frame is rendered")
+        if r.pixel_aspect_x != r.pixel_aspect_y:
+            self.warn(f"scene '{sc.name}': pixel aspect {r.pixel_aspect_x}:{r.pixel_aspect_y} "
+                      "is not supported (square pixels are rendered)")
+        if r.use_motion_blur:
+            self.warn(f"scene '{sc.name}': motion blur is not supported")
+        if self.frames_arg:
+            if not FRAMES_RE.match(self.frames_arg):
+                raise ExportError(f"--frames {self.frames_arg!r}: expected a list like 1-40 "
+                                  "or 1-3,5,7-20:2")
+            frames_text = self.frames_arg.replace(' ', '')
+        else:
+            frames_text = frame_range_text(sc.frame_start, sc.frame_end, sc.frame_step)
+        self.frames = expand_frames(frames_text)
+        if not self.frames:
+            raise ExportError(f'the frame list {frames_text!r} is empty')
+        out['frames'] = frames_text
+        if self.output_arg:
+            output = self.output_arg
+        else:
+            output = blender_output_pattern(r.filepath, self.blend_path)
+        if not output.endswith('.exr'):
+            output = os.path.splitext(output)[0] + '.exr' if output.endswith('.png') else output + '.exr'
+        out['output'] = output
+        if not self.no_preview:
+            out['preview'] = self.preview_arg or (output[:-4] + '.png')
+        vs = sc.view_settings
+        if vs.exposure != 0.0:
+            out['exposure'] = g7(vs.exposure)
+        if vs.view_transform not in ('Standard', 'Raw'):
+            self.note(f"view transform '{vs.view_transform}': the PNG preview uses vdbphoton's "
+                      f"--view (e.g. --view {vs.view_transform.lower()}); the EXR is linear")
+        return out
+
+    # -- camera
+
+    def export_camera(self):
+        sc = self.scene
+        co = sc.camera
+        if co is None:
+            raise ExportError(f"scene '{sc.name}' has no active camera")
+        if co.type != 'CAMERA':
+            raise ExportError(f"the active camera '{co.name}' is not a camera object")
+        cam = co.data
+        if cam.type == 'ORTHO':
+            raise ExportError(f"camera '{co.name}' is orthographic; vdbphoton renders only "
+                              "perspective (pinhole) cameras")
+        if cam.type == 'PANO':
+            raise ExportError(f"camera '{co.name}' is panoramic; vdbphoton renders only "
+                              "perspective (pinhole) cameras")
+        if cam.dof.use_dof:
+            self.warn(f"camera '{co.name}': depth of field is not supported (rendered sharp)")
+        mw = co.matrix_world
+        loc, rot, _scale = mw.decompose()
+        m = Matrix.Translation(loc) @ rot.to_matrix().to_4x4()
+        out = {'_comment': f"Blender camera '{co.name}'",
+               'matrix': matrix_rows(m, 7),
+               'focal_length': g7(cam.lens),
+               'sensor_width': g7(cam.sensor_width),
+               'sensor_height': g7(cam.sensor_height),
+               'sensor_fit': cam.sensor_fit.lower()}
+        if cam.shift_x != 0.0:
+            out['shift_x'] = g7(cam.shift_x)
+        if cam.shift_y != 0.0:
+            out['shift_y'] = g7(cam.shift_y)
+        return out
+
+    # -- lights
+
+    def light_colour(self, o):
+        L = o.data
+        col = Vector(rgb3(L.color))
+        if getattr(L, 'use_temperature', False):
+            col = Vector([col[i] * L.temperature_color[i] for i in range(3)])
+        k = 2.0 ** float(getattr(L, 'exposure', 0.0))
+        k *= float(getattr(L, 'volume_factor', 1.0))
+        if getattr(L, 'volume_factor', 1.0) != 1.0:
+            self.note(f"light '{o.name}': its Volume factor {L.volume_factor} is applied")
+        if getattr(L, 'use_nodes', False) and L.node_tree is not None:
+            strength, ncol = self.light_nodes(o)
+            k *= strength
+            col = Vector([col[i] * ncol[i] for i in range(3)])
+        return col * k
+
+    def light_nodes(self, o):
+        nt = o.data.node_tree
+        outs = [n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputLight' and n.is_active_output]
+        if not outs or not outs[0].inputs['Surface'].is_linked:
+            return 1.0, (1.0, 1.0, 1.0)
+        n = follow(outs[0].inputs['Surface'])
+        if n.bl_idname != 'ShaderNodeEmission' or n.inputs['Strength'].is_linked \
+                or n.inputs['Color'].is_linked:
+            self.warn(f"light '{o.name}': light node '{n.name}' is not supported "
+                      "(only an Emission node with constant inputs); its nodes are ignored")
+            return 1.0, (1.0, 1.0, 1.0)
+        return float(n.inputs['Strength'].default_value), rgb3(n.inputs['Color'].default_value)
+
+    def export_lights(self, objects):
+        lights = []
+        for o in objects:
+            if o.type != 'LIGHT':
+                continue
+            L = o.data
+            mw = o.matrix_world
+            col = self.light_colour(o)
+            if L.type == 'AREA':
+                self.warn(f"light '{o.name}' is an area light, which vdbphoton does not "
+                          "support; it is not exported")
+                continue
+            if not getattr(L, 'use_shadow', True):
+                self.warn(f"light '{o.name}': 'Cast Shadow' off is not supported "
+                          "(vdbphoton's lights always cast shadows)")
+            if L.type == 'SUN':
+                d = (mw.to_3x3() @ Vector((0.0, 0.0, 1.0))).normalized()
+                lights.append({'_comment': f"Blender sun '{o.name}'", 'type': 'sun',
+                               'direction': rounded(d),
+                               'irradiance': rounded(col * float(L.energy)),
+                               'angle': g7(math.degrees(L.angle))})
+                continue
+            if L.type not in ('POINT', 'SPOT'):
+                self.warn(f"light '{o.name}' of type {L.type} is not supported; not exported")
+                continue
+            if L.shadow_soft_size > 0.0:
+                self.warn(f"light '{o.name}': radius {L.shadow_soft_size:g} m (soft light) is "
+                          "rendered as a point light by vdbphoton")
+            pos = mw.to_translation()
+            t = {'_comment': f"Blender {L.type.lower()} light '{o.name}' ({L.energy:g} W)",
+                 'type': L.type.lower(), 'position': rounded(pos),
+                 'intensity': rounded(col * (float(L.energy) / (4.0 * math.pi)))}
+            if L.type == 'SPOT':
+                d = (mw.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized()
+                t['direction'] = rounded(d)
+                t['cone_angle'] = g7(min(180.0, math.degrees(L.spot_size)))
+                t['blend'] = g7(L.spot_blend)
+                s = mw.to_scale()
+                if abs(s.x - s.y) > 1e-6 * max(abs(s.x), abs(s.y)):
+                    self.warn(f"spot light '{o.name}': non-uniform scale makes Blender's cone "
+                              "elliptic; vdbphoton's is round")
+            lights.append(t)
+        return lights
+
+    # -- world
+
+    def export_world(self):
+        w = self.scene.world
+        if w is None:
+            return None
+        nt = w.node_tree if uses_nodes(w) else None
+        if nt is None:
+            c = rgb3(w.color)
+            return {'_comment': f"Blender world '{w.name}' (colour)", 'radiance': rounded(c)}
+        outs = [n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputWorld']
+        act = [n for n in outs if n.is_active_output and n.target in ('ALL', 'CYCLES')] or \
+              [n for n in outs if n.is_active_output] or outs
+        for n in nt.nodes:
+            if n.bl_idname == 'ShaderNodeTexSky':
+                self.warn(f"world '{w.name}': node '{n.name}' (Sky Texture) is not supported")
+        if not act:
+            return None
+        out = act[0]
+        if out.inputs['Volume'].is_linked:
+            self.warn(f"world '{w.name}': node '{follow(out.inputs['Volume']).name}' (world "
+                      "volume) is not supported")
+        if not out.inputs['Surface'].is_linked:
+            return None
+        bg = follow(out.inputs['Surface'])
+        if bg.bl_idname not in ('ShaderNodeBackground', 'ShaderNodeEmission'):
+            if bg.bl_idname == 'ShaderNodeTexSky':
+                return None
+            self.warn(f"world '{w.name}': node '{bg.name}' ({bg.bl_label}) is not supported; "
+                      "the environment is not exported (black)")
+            return None
+        st = bg.inputs['Strength']
+        if st.is_linked:
+            self.warn(f"world '{w.name}': node '{follow(st).name}' drives the Strength of "
+                      f"'{bg.name}'; not supported (the environment is not exported)")
+            return None
+        strength = float(st.default_value)
+        ci = bg.inputs['Color']
+        if not ci.is_linked:
+            c = [x * strength for x in rgb3(ci.default_value)]
+            return {'_comment': f"Blender world '{w.name}' (constant colour x strength)",
+                    'radiance': rounded(c)}
+        src = follow(ci)
+        if src.bl_idname == 'ShaderNodeRGB':
+            c = [x * strength for x in rgb3(src.outputs[0].default_value)]
+            return {'_comment': f"Blender world '{w.name}' (constant colour x strength)",
+                    'radiance': rounded(c)}
+        if src.bl_idname != 'ShaderNodeTexEnvironment':
+            if src.bl_idname == 'ShaderNodeTexSky':
+                return None
+            self.warn(f"world '{w.name}': node '{src.name}' ({src.bl_label}) feeding the "
+                      "background colour is not supported; the environment is not exported")
+            return None
+        img = src.image
+        if img is None:
+            self.warn(f"world '{w.name}': node '{src.name}' has no image; not exported")
+            return None
+        if img.packed_file is not None:
+            self.warn(f"world '{w.name}': image '{img.name}' of node '{src.name}' is packed "
+                      "in the .blend; unpack it to a file to export it")
+            return None
+        if src.projection != 'EQUIRECTANGULAR':
+            self.warn(f"world '{w.name}': node '{src.name}' uses {src.projection} projection; "
+                      "only equirectangular maps are supported")
+        path = os.path.normpath(bpy.path.abspath(img.filepath, library=img.library))
+        env = {'_comment': f"Blender world '{w.name}' (environment texture '{img.name}')",
+               'map': path, 'strength': g7(strength)}
+        rot = 0.0
+        vi = src.inputs['Vector']
+        if vi.is_linked:
+            mp = follow(vi)
+            if mp.bl_idname == 'ShaderNodeMapping':
+                rot = self.mapping_rotation(w, mp)
+            elif mp.bl_idname != 'ShaderNodeTexCoord':
+                self.warn(f"world '{w.name}': node '{mp.name}' ({mp.bl_label}) feeding the "
+                          f"vector of '{src.name}' is not supported (ignored)")
+        if rot is not None and rot != 0.0:
+            env['rotate_z'] = g7(rot)
+        return env
+
+    def mapping_rotation(self, w, mp):
+        """vdbphoton's rotate_z for a Mapping node: it looks the map up at
+        R(-rotate_z) w (src/light.rs); a POINT/VECTOR mapping turns the
+        vector by R(rz), a TEXTURE mapping by R(-rz)."""
+        ins = mp.inputs
+        for name in ('Location', 'Rotation', 'Scale'):
+            if name in ins and ins[name].is_linked:
+                self.warn(f"world '{w.name}': the {name} of Mapping node '{mp.name}' is linked; "
+                          "not supported (no rotation exported)")
+                return None
+        rx, ry, rz = ins['Rotation'].default_value
+        sx, sy, sz = ins['Scale'].default_value
+        loc = ins['Location'].default_value if 'Location' in ins else (0, 0, 0)
+        if abs(rx) > 1e-7 or abs(ry) > 1e-7:
+            self.warn(f"world '{w.name}': Mapping node '{mp.name}' rotates about X or Y; only "
+                      "the Z rotation is exported")
+        if not (abs(sx - sy) < 1e-6 and abs(sy - sz) < 1e-6) or \
+                (mp.vector_type == 'POINT' and max(abs(x) for x in loc) > 1e-7):
+            self.warn(f"world '{w.name}': Mapping node '{mp.name}' has a location or "
+                      "non-uniform scale; not supported (ignored)")
+        if mp.vector_type in ('POINT', 'VECTOR'):
+            return -math.degrees(rz)
+        if mp.vector_type == 'TEXTURE':
+            return math.degrees(rz)
+        self.warn(f"world '{w.name}': Mapping node '{mp.name}' of type {mp.vector_type} is "
+                  "not supported")
+        return None
+
+    # -- volumes
+
+    def grid_info(self, path):
+        """(grid names, {name: data_type}, index->file matrix) of a VDB file,
+        read by Blender, or None."""
+        if not os.path.isfile(path):
+            return None
+        vol = bpy.data.volumes.new('.vdbphoton_export_probe')
+        try:
+            vol.filepath = path
+            try:
+                ok = vol.grids.load()
+            except Exception:  # noqa: BLE001
+                ok = False
+            if not ok or len(vol.grids) == 0:
+                return None
+            names = [g.name for g in vol.grids]
+            types = {g.name: g.data_type for g in vol.grids}
+            mats = {g.name: Matrix(g.matrix_object) for g in vol.grids}
+            return names, types, mats
+        finally:
+            bpy.data.volumes.remove(vol)
+
+    def export_volume_object(self, o):
+        vol = o.data
+        what = f"volume object '{o.name}'"
+        if vol.packed_file is not None:
+            self.warn(f"{what}: its VDB file is packed in the .blend; unpack it to export it")
+            return None
+        path = os.path.normpath(bpy.path.abspath(vol.filepath, library=vol.library))
+        comment = [f"Blender {what}, file {vol.filepath}"]
+        entry = {'file': None}
+        frame_files = {}
+        if vol.is_sequence:
+            sp = sequence_pattern(path)
+            if sp is None:
+                self.warn(f"{what}: 'Sequence' is on but the file name {os.path.basename(path)} "
+                          "has no frame number; exported as a single file")
+                file_value = path
+                probe = path
+            else:
+                pattern = sp[0]
+                # BKE_volume_time (CLIP/EXTEND/REPEAT/PING_PONG), then + offset.
+                k = 1 - vol.frame_start + vol.frame_offset
+                for f in self.frames:
+                    n = volume_sequence_frame(vol, f)
+                    frame_files[f] = None if n is None else pattern_path(pattern, n)
+                irregular = [f for f in self.frames
+                             if frame_files[f] is not None and frame_files[f] != pattern_path(pattern, f + k)]
+                outside = [f for f in self.frames if frame_files[f] is None]
+                if irregular:
+                    self.warn(f"{what}: sequence mode {vol.sequence_mode} repeats or holds files "
+                              f"at frames {compress_frames(irregular)}; vdbphoton reads file "
+                              "frame + offset there")
+                if outside:
+                    self.warn(f"{what}: frames {compress_frames(outside)} are outside the "
+                              "sequence (Blender shows no volume there); vdbphoton will fail "
+                              "those frames")
+                file_value = pattern
+                if k != 0:
+                    # vdbphoton: frame f reads file frame f + frame_offset.
+                    entry['frame_offset'] = k
+                    comment.append(f"sequence Start Frame {vol.frame_start}, Offset "
+                                   f"{vol.frame_offset}: file = frame {k:+d} (frame_offset)")
+                existing = [p for p in frame_files.values() if p and os.path.isfile(p)]
+                missing = [f for f, p in frame_files.items() if p and not os.path.isfile(p)]
+                if missing:
+                    self.warn(f"{what}: no file for frames {compress_frames(missing)} "
+                              f"({os.path.basename(pattern)})")
+                probe = existing[0] if existing else path
+        else:
+            file_value = path
+            probe = path
+        info = self.grid_info(probe)
+        if info is None:
+            self.warn(f"{what}: cannot read grids from {probe}; grid names are not checked")
+            names, types = None, {}
+        else:
+            names, types, _ = info
+        entry['file'] = file_value
+        mat = self.object_material(o)
+        resolve = lambda attr: volume_attribute(attr, names)  # noqa: E731
+        m = self.export_material(o, mat, resolve, types, comment, names)
+        if m is None:
+            return None
+        entry.update(m['grids'])
+        mw = o.matrix_world
+        entry['transform'] = {'matrix': matrix_rows(mw, 7)}
+        if vol.render.space == 'OBJECT':
+            # Cycles' object_volume_density(): with Space = Object the
+            # densities and emission are per object-space length, scaled by
+            # 1 / |M (1,1,1)/sqrt 3| in every direction.
+            f = 1.0 / (mw.to_3x3() @ Vector((1.0, 1.0, 1.0)).normalized()).length
+            if abs(f - 1.0) > 1e-6:
+                scale_material(m['material'], f)
+                comment.append(f"volume Space = Object: densities and emission x {f:.7g} "
+                               "(Blender's 1 / |M (1,1,1)/sqrt 3|)")
+        entry['material'] = m['material']
+        entry['_comment'] = comment
+        for mod in o.modifiers:
+            if mod.show_render:
+                self.warn(f"{what}: modifier '{mod.name}' ({mod.type}) is not applied; the "
+                          "file is rendered as it is")
+        return entry
+
+    def export_domain(self, o, mod):
+        ds = mod.domain_settings
+        what = f"fluid domain '{o.name}'"
+        if ds.cache_data_format != 'OPENVDB':
+            self.warn(f"{what}: its cache format is {ds.cache_data_format}; only OpenVDB caches "
+                      "can be rendered (set Cache > Format Volumes to OpenVDB and bake again)")
+            return None
+        cache = os.path.normpath(bpy.path.abspath(ds.cache_directory, library=o.library))
+        pattern = os.path.join(cache, 'data', 'fluid_data_####.vdb')
+        comment = [f"Blender {what}, cache {ds.cache_directory} (Mantaflow, OpenVDB)"]
+        entry = {'file': pattern}
+        offset = int(ds.cache_frame_offset)
+        if offset != 0:
+            # Blender reads cache frame (scene frame - offset); vdbphoton
+            # frame f reads file frame f + frame_offset.
+            entry['frame_offset'] = -offset
+            comment.append(f"cache Offset {offset}: file = frame {-offset:+d} (frame_offset)")
+        if ds.use_adaptive_domain:
+            self.warn(f"{what}: Adaptive Domain is on; the cache is placed as a whole domain, "
+                      "which is wrong where the adaptive region moved (turn it off and bake again)")
+        if ds.use_noise:
+            self.warn(f"{what}: the noise (high resolution) cache is not exported; vdbphoton "
+                      "renders the base resolution")
+        idx = list(o.modifiers).index(mod)
+        before = [m.name for m in o.modifiers[:idx] if m.show_render]
+        if before:
+            self.warn(f"{what}: modifiers before the fluid modifier ({', '.join(before)}) are "
+                      "ignored in the domain's placement")
+        outside = [f for f in self.frames
+                   if not (ds.cache_frame_start <= f <= ds.cache_frame_end)]
+        if outside:
+            self.warn(f"{what}: frames {compress_frames(outside)} are outside the cache range "
+                      f"{ds.cache_frame_start}-{ds.cache_frame_end} (Blender shows no smoke "
+                      "there); vdbphoton will fail those frames")
+        files = {f: os.path.join(cache, 'data', f'fluid_data_{f - offset:04d}.vdb')
+                 for f in self.frames}
+        missing = [f for f, p in files.items() if not os.path.isfile(p) and f not in outside]
+        if missing:
+            self.warn(f"{what}: the cache has no file for frames {compress_frames(missing)} "
+                      f"(in {os.path.join(cache, 'data')}); bake them first")
+        existing = [p for p in files.values() if os.path.isfile(p)]
+        info = self.grid_info(existing[0]) if existing else None
+        names, types, fmat = (None, {}, None) if info is None else info
+        place = domain_placement(o, ds)
+        F = None
+        if fmat:
+            F = fmat.get('density') or next(iter(fmat.values()))
+            vs = F.to_3x3().to_scale()
+            if max(abs(vs[i] - place['dx']) for i in range(3)) > 1e-4 * place['dx'] or \
+                    F.to_translation().length > 1e-6 * place['dx']:
+                self.warn(f"{what}: the cache's voxel size {vs[0]:.6g} does not match the "
+                          f"domain's settings (expected {place['dx']:.6g}: resolution "
+                          f"{tuple(place['res'])}); was it baked with other settings?")
+        else:
+            F = Matrix.Diagonal((place['dx'],) * 3).to_4x4()
+            self.warn(f"{what}: no cache file to read in the frame range; its transform is "
+                      "computed from the domain settings alone")
+        T = o.matrix_world @ place['index_to_local'] @ F.inverted()
+        mat = self.object_material(o)
+        fire = (ds.flame_ignition, ds.flame_max_temp)
+        resolve = lambda attr: self.domain_attribute(attr, names, what, fire)  # noqa: E731
+        m = self.export_material(o, mat, resolve, types, comment, names, domain=True)
+        if m is None:
+            return None
+        entry.update(m['grids'])
+        res = place['res']
+        lo = F @ Vector((-0.5, -0.5, -0.5))
+        hi = F @ Vector((res[0] - 0.5, res[1] - 0.5, res[2] - 0.5))
+        entry['bounds'] = [rounded([min(lo[i], hi[i]) for i in range(3)], 9),
+                           rounded([max(lo[i], hi[i]) for i in range(3)], 9)]
+        entry['transform'] = {'matrix': matrix_rows(T)}
+        entry['material'] = m['material']
+        comment.append(f"domain resolution {res[0]} x {res[1]} x {res[2]}, voxel i at local "
+                       f"p0 + (i + 0.5) * cell: matrix = matrix_world . Translate(p0 + cell/2) "
+                       f". Scale(cell) . (file index->world)^-1")
+        entry['_comment'] = comment
+        return entry
+
+    def domain_attribute(self, attr, names, what, fire):
+        """(grid, factor, extra keys) for a domain attribute, or None."""
+        if attr == 'temperature':
+            if self.temperature_from_flame:
+                if names is not None and 'flame' not in names:
+                    return None
+                return ('flame', 1.0, {'temperature_from_flame': [g7(fire[0]), g7(fire[1])]})
+            if names is not None and 'temperature' not in names:
+                return None
+            self.warn(f"{what}: Blender derives the domain's 'temperature' attribute from the "
+                      f"flame grid ({fire[0]:g} + flame x ({fire[1]:g} - {fire[0]:g}) where flame "
+                      "> 0.01); the cache's 'temperature' grid (Mantaflow's heat x 2) is "
+                      "exported instead, so fire differs from Blender's (17 % dimmer on the "
+                      "shared frame 25); --temperature-from-flame writes the key "
+                      "temperature_from_flame (not yet in vdbphoton's scene format)")
+            return ('temperature', 1.0, {})
+        if attr in DOMAIN_GRIDS:
+            g, k = DOMAIN_GRIDS[attr]
+            if names is not None and g not in names:
+                return None
+            return (g, k, {})
+        return None
+
+    def object_material(self, o):
+        slots = [s.material for s in o.material_slots if s.material is not None]
+        return slots[0] if slots else None
+
+    # -- materials
+
+    def export_material(self, o, mat, resolve, types, comment, names, domain=False):
+        """{'grids': {density_grid/temperature_grid/...}, 'material': {...}} or
+        None (warned)."""
+        what = f"{'fluid domain' if domain else 'volume object'} '{o.name}'"
+        if mat is None:
+            self.warn(f"{what} has no material; Blender renders it black (no volume "
+                      "shader); not exported")
+            return None
+        mname = f"material '{mat.name}'"
+        nt = mat.node_tree if uses_nodes(mat) else None
+        if nt is None:
+            self.warn(f"{what}: {mname} uses no nodes; not exported")
+            return None
+        outs = [n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
+        act = [n for n in outs if n.is_active_output and n.target in ('ALL', 'CYCLES')] or \
+              [n for n in outs if n.is_active_output] or outs
+        if not act or not act[0].inputs['Volume'].is_linked:
+            self.warn(f"{what}: {mname} has no volume shader; not exported")
+            return None
+        out = act[0]
+        if domain and out.inputs['Surface'].is_linked:
+            self.warn(f"{what}: {mname} node '{follow(out.inputs['Surface']).name}' is a surface "
+                      "shader, which Blender renders on the domain box; vdbphoton renders only "
+                      "the volume")
+        node = follow(out.inputs['Volume'])
+        comment.append(f"{mname}, node '{node.name}'")
+        ctx = MaterialContext(self, what, mname)
+        ctx.grid_names = names
+        if node.bl_idname == 'ShaderNodeVolumePrincipled':
+            return self.principled(ctx, node, resolve, types)
+        leaves = ctx.shader_leaves(node)
+        if leaves is None:
+            return None
+        return self.raw_material(ctx, leaves, resolve)
+
+    def attr_grid(self, ctx, node, input_name, attr, resolve, extra):
+        r = resolve(attr)
+        if r is None:
+            self.warn(f"{ctx.what}: {ctx.mname} node '{node.name}' reads attribute '{attr}' "
+                      f"({input_name}), but the file has no grid for it"
+                      + (f" (grids: {', '.join(ctx.grid_names)})" if ctx.grid_names else ''))
+            return None
+        g, k, keys = r
+        extra.update(keys)
+        return g, k
+
+    def principled(self, ctx, pv, resolve, types):
+        I = pv.inputs
+        grids, extra = {}, {}
+        # Density: Density (x Density Attribute grid).
+        dsrc = ctx.scalar(pv, 'Density')
+        if dsrc is None:
+            return None
+        dattr = str(I['Density Attribute'].default_value).strip()
+        dlink, density = dsrc
+        if dlink is not None and dattr:
+            self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': Density is driven by attribute "
+                      f"'{dlink}' and Density Attribute '{dattr}' as well; not supported")
+            return None
+        dattr = dlink or dattr
+        if not dattr:
+            self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': no density attribute: Blender "
+                      "fills the object's bounds uniformly, which vdbphoton cannot; not exported")
+            return None
+        r = self.attr_grid(ctx, pv, 'Density', dattr, resolve, extra)
+        if r is None:
+            return None
+        grids['density_grid'] = r[0]
+        density *= r[1]
+        col = ctx.colour(pv, 'Color')
+        cattr = str(I['Color Attribute'].default_value).strip()
+        if col is None:
+            return None
+        if isinstance(col, str):
+            if cattr:
+                self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': Color driven by attribute "
+                          f"'{col}' and Color Attribute '{cattr}'; not supported (white used)")
+            cattr, col = col, [1.0, 1.0, 1.0]
+        if cattr:
+            r = self.attr_grid(ctx, pv, 'Color Attribute', cattr, resolve, {})
+            if r is not None:
+                if types and types.get(r[0]) not in (None, 'VECTOR_FLOAT'):
+                    self.warn(f"{ctx.what}: colour grid '{r[0]}' is {types.get(r[0])}, not a "
+                              "float vector grid; colour attribute not exported")
+                else:
+                    grids['color_grid'] = r[0]
+        absorb = ctx.colour(pv, 'Absorption Color', const_only=True)
+        g = ctx.const(pv, 'Anisotropy')
+        ec = ctx.colour(pv, 'Emission Color', const_only=True)
+        esrc = ctx.scalar(pv, 'Emission Strength')
+        bi = ctx.const(pv, 'Blackbody Intensity')
+        bt = ctx.colour(pv, 'Blackbody Tint', const_only=True)
+        tsrc = ctx.scalar(pv, 'Temperature')
+        if None in (absorb, g, ec, esrc, bi, bt, tsrc):
+            return None
+        es_attr, es = esrc
+        if es_attr is not None and es > 0:
+            r = self.attr_grid(ctx, pv, 'Emission Strength', es_attr, resolve, extra)
+            if r is None:
+                es = 0.0
+            else:
+                grids['flame_grid'] = r[0]
+                es *= r[1]
+        t_link, temperature = tsrc
+        tattr = str(I['Temperature Attribute'].default_value).strip()
+        if t_link is not None:
+            if tattr:
+                self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': Temperature driven by "
+                          f"attribute '{t_link}' and Temperature Attribute '{tattr}'; not "
+                          "supported (blackbody not exported)")
+                bi = 0.0
+            tattr = t_link
+        if bi > 0 and tattr:
+            r = self.attr_grid(ctx, pv, 'Temperature Attribute', tattr, resolve, extra)
+            if r is None:
+                self.warn(f"{ctx.what}: blackbody emission is not exported")
+                bi = 0.0
+            else:
+                grids['temperature_grid'] = r[0]
+                temperature *= r[1]
+        elif bi > 0 and types is not None:
+            self.note(f"{ctx.what}: blackbody at a constant {temperature:g} K (no temperature "
+                      "attribute): vdbphoton emits it only where the density is > 0, Blender "
+                      "wherever the volume's bounds are")
+        material = {'density': g7(density), 'color': rounded(col),
+                    'absorption_color': rounded(absorb), 'anisotropy': g7(g),
+                    'emission_strength': g7(es), 'emission_color': rounded(ec),
+                    'blackbody_intensity': g7(bi), 'blackbody_tint': rounded(bt),
+                    'temperature': g7(temperature)}
+        grids.update(extra)
+        return {'grids': grids, 'material': material}
+
+    def raw_material(self, ctx, leaves, resolve):
+        """Volume Scatter / Volume Absorption nodes added together, densities
+        driven by one attribute."""
+        attr = None
+        sigma_s = [0.0, 0.0, 0.0]
+        sigma_a = [0.0, 0.0, 0.0]
+        gs = []
+        for n in leaves:
+            src = ctx.scalar(n, 'Density')
+            if src is None:
+                return None
+            a, k = src
+            if a is None:
+                self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}': its Density is a constant "
+                          "(Blender fills the object's bounds uniformly), which vdbphoton cannot; "
+                          "not exported")
+                return None
+            if attr is not None and a != attr:
+                self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}' reads attribute '{a}' while "
+                          f"another node reads '{attr}'; not supported")
+                return None
+            attr = a
+            c = ctx.colour(n, 'Color', const_only=True)
+            if c is None:
+                return None
+            if n.bl_idname == 'ShaderNodeVolumeScatter':
+                phase = getattr(n, 'phase', 'HENYEY_GREENSTEIN')
+                if phase != 'HENYEY_GREENSTEIN':
+                    self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}': phase {phase} is not "
+                              "supported (Henyey-Greenstein with its Anisotropy used)")
+                g = ctx.const(n, 'Anisotropy')
+                if g is None:
+                    return None
+                gs.append((g, k * max(c)))
+                sigma_s = [sigma_s[i] + k * c[i] for i in range(3)]
+            else:
+                sigma_a = [sigma_a[i] + k * max(0.0, 1.0 - c[i]) for i in range(3)]
+        r = self.attr_grid(ctx, leaves[0], 'Density', attr, resolve, {})
+        if r is None:
+            return None
+        grid, f = r
+        material = {'sigma_s': rounded([x * f for x in sigma_s]),
+                    'sigma_a': rounded([x * f for x in sigma_a])}
+        gvals = sorted(set(g7(g) for g, _ in gs))
+        if len(gvals) == 1 and gvals[0] != 0.0:
+            material['phase'] = {'type': 'hg', 'g': gvals[0]}
+        elif len(gvals) > 1:
+            tot = sum(w for _, w in gs)
+            material['phase'] = {'type': 'hg_mix', 'lobes': [
+                {'g': g7(g), 'weight': g7(w / tot)} for g, w in gs if w > 0]}
+        return {'grids': {'density_grid': grid}, 'material': material}
+
+    # -- everything
+
+    def export(self):
+        sc = self.scene
+        doc = {'header': [f"vdbphoton scene exported by tools/blender/vdbphoton_export.py from "
+                          f"{os.path.basename(self.blend_path) or '(unsaved)'}, scene '{sc.name}', "
+                          f"Blender {bpy.app.version_string}"],
+               'light': [], 'volume': [], 'environment': None}
+        doc['render'] = self.export_render()
+        doc['camera'] = self.export_camera()
+        objects = self.render_objects()
+        doc['light'] = self.export_lights(objects)
+        doc['environment'] = self.export_world()
+        for o in objects:
+            if o.type == 'VOLUME':
+                v = self.export_volume_object(o)
+                if v is not None:
+                    doc['volume'].append(v)
+                continue
+            dom = None
+            for mod in o.modifiers:
+                if mod.type == 'FLUID' and mod.fluid_type == 'DOMAIN':
+                    dom = mod
+            if dom is not None and dom.show_render:
+                ds = dom.domain_settings
+                if ds.domain_type == 'GAS':
+                    v = self.export_domain(o, dom)
+                    if v is not None:
+                        doc['volume'].append(v)
+                else:
+                    self.warn(f"fluid domain '{o.name}' is a liquid domain; not supported "
+                              "(Blender renders its mesh)")
+                continue
+            self.check_other(o)
+        if not doc['volume']:
+            raise ExportError(f"nothing to export: scene '{sc.name}' has no Volume object or "
+                              "smoke domain that could be exported")
+        return doc
+
+    def check_other(self, o):
+        """Objects Blender renders that vdbphoton does not: warned about."""
+        if o.type in ('CAMERA', 'LIGHT', 'EMPTY', 'ARMATURE', 'LATTICE', 'SPEAKER',
+                      'LIGHT_PROBE', 'LIGHTPROBE'):
+            if o.type == 'EMPTY' and o.instance_type == 'COLLECTION' and o.instance_collection:
+                self.warn(f"object '{o.name}' instances collection "
+                          f"'{o.instance_collection.name}'; instances are not exported")
+            return
+        kind = {'MESH': 'mesh', 'META': 'metaball', 'CURVE': 'curve', 'SURFACE': 'surface',
+                'FONT': 'text', 'CURVES': 'hair curves', 'POINTCLOUD': 'point cloud',
+                'GPENCIL': 'grease pencil', 'GREASEPENCIL': 'grease pencil'}.get(o.type, o.type)
+        role = ''
+        for mod in getattr(o, 'modifiers', []):
+            if mod.type == 'FLUID' and mod.fluid_type in ('FLOW', 'EFFECTOR'):
+                role = f' (fluid {mod.fluid_type.lower()})'
+        vol_nodes = []
+        for s in getattr(o, 'material_slots', []):
+            m = s.material
+            if m is None or m.node_tree is None:
+                continue
+            for n in m.node_tree.nodes:
+                if n.bl_idname == 'ShaderNodeOutputMaterial' and n.is_active_output and \
+                        n.inputs['Volume'].is_linked:
+                    vol_nodes.append((m.name, follow(n.inputs['Volume']).name))
+        for mname, nname in vol_nodes:
+            self.warn(f"{kind} object '{o.name}'{role}: material '{mname}' node '{nname}' fills "
+                      f"the {kind} with a homogeneous volume, which vdbphoton does not support; "
+                      "not exported")
+        if not vol_nodes:
+            self.warn(f"{kind} object '{o.name}'{role} is rendered by Blender as a surface; "
+                      "vdbphoton renders only volumes; not exported")
+
+
+class MaterialContext:
+    """Reads constant inputs and simple attribute links of shader nodes,
+    warning (naming object, material, node, input) about anything else."""
+
+    def __init__(self, ex, what, mname):
+        self.ex, self.what, self.mname = ex, what, mname
+        self.grid_names = None
+
+    def bad(self, node, input_name, src):
+        self.ex.warn(f"{self.what}: {self.mname} node '{src.name}' ({src.bl_label}) drives "
+                     f"'{input_name}' of node '{node.name}'; not supported")
+
+    def const(self, node, name):
+        s = node.inputs[name]
+        if not s.is_linked:
+            return float(s.default_value)
+        src = follow(s)
+        if src.bl_idname == 'ShaderNodeValue':
+            return float(src.outputs[0].default_value)
+        self.bad(node, name, src)
+        return None
+
+    def scalar(self, node, name):
+        """(attribute or None, factor)."""
+        s = node.inputs[name]
+        if not s.is_linked:
+            return None, float(s.default_value)
+        src, sock = follow(s, with_socket=True)
+        if src.bl_idname == 'ShaderNodeValue':
+            return None, float(src.outputs[0].default_value)
+        if src.bl_idname == 'ShaderNodeAttribute' and sock.name in ('Fac', 'Factor') and \
+                src.attribute_type == 'GEOMETRY':
+            return src.attribute_name, 1.0
+        if src.bl_idname == 'ShaderNodeMath' and src.operation == 'MULTIPLY' and not src.use_clamp:
+            a, b = src.inputs[0], src.inputs[1]
+            for x, y in ((a, b), (b, a)):
+                if x.is_linked and not y.is_linked:
+                    n2, s2 = follow(x, with_socket=True)
+                    if n2.bl_idname == 'ShaderNodeAttribute' and s2.name in ('Fac', 'Factor') and \
+                            n2.attribute_type == 'GEOMETRY':
+                        return n2.attribute_name, float(y.default_value)
+        self.bad(node, name, src)
+        return None
+
+    def colour(self, node, name, const_only=False):
+        """[r, g, b], or an attribute name (Color output of an Attribute node)."""
+        s = node.inputs[name]
+        if not s.is_linked:
+            return rgb3(s.default_value)
+        src, sock = follow(s, with_socket=True)
+        if src.bl_idname == 'ShaderNodeRGB':
+            return rgb3(src.outputs[0].default_value)
+        if not const_only and src.bl_idname == 'ShaderNodeAttribute' and sock.name == 'Color' \
+                and src.attribute_type == 'GEOMETRY':
+            return src.attribute_name
+        self.bad(node, name, src)
+        return None
+
+    def shader_leaves(self, node):
+        if node.bl_idname in ('ShaderNodeVolumeScatter', 'ShaderNodeVolumeAbsorption'):
+            return [node]
+        if node.bl_idname == 'ShaderNodeAddShader':
+            out = []
+            for s in node.inputs:
+                if s.is_linked:
+                    sub = self.shader_leaves(follow(s))
+                    if sub is None:
+                        return None
+                    out.extend(sub)
+            return out
+        self.ex.warn(f"{self.what}: {self.mname} node '{node.name}' ({node.bl_label}) is not "
+                     "supported (a Principled Volume, or Volume Scatter and Volume Absorption "
+                     "added together, are); not exported")
+        return None
+
+
+def uses_nodes(idblock):
+    """Blender 5 always uses nodes (use_nodes is deprecated there)."""
+    if bpy.app.version >= (5, 0, 0):
+        return idblock.node_tree is not None
+    return bool(idblock.use_nodes)
+
+
+def follow(socket, with_socket=False):
+    """The node (and output socket) feeding `socket`, through reroutes."""
+    link = socket.links[0]
+    node, out = link.from_node, link.from_socket
+    while node.bl_idname == 'NodeReroute' and node.inputs[0].is_linked:
+        link = node.inputs[0].links[0]
+        node, out = link.from_node, link.from_socket
+    return (node, out) if with_socket else node
+
+
+def scale_material(mat, f):
+    """Multiplies a material's extinction and emission by f."""
+    if 'density' in mat:
+        mat['density'] = g7(mat['density'] * f)
+        mat['emission_strength'] = g7(mat['emission_strength'] * f)
+        mat['blackbody_tint'] = rounded([x * f for x in mat['blackbody_tint']])
+    else:
+        for k in ('sigma_s', 'sigma_a'):
+            mat[k] = rounded([x * f for x in mat[k]])
+
+
+def volume_attribute(attr, names):
+    """A Volume object's attribute is the grid of that name."""
+    if names is not None and attr not in names:
+        return None
+    return attr, 1.0, {}
+
+
+def volume_sequence_frame(vol, frame):
+    """Blender's BKE_volume_time: the file number shown at scene `frame`,
+    or None where the sequence shows nothing."""
+    dur = vol.frame_duration
+    if dur <= 0:
+        return None
+    f = frame - vol.frame_start + 1
+    mode = vol.sequence_mode
+    if mode == 'CLIP':
+        if f < 1 or f > dur:
+            return None
+    elif mode == 'EXTEND':
+        f = min(max(f, 1), dur)
+    elif mode == 'REPEAT':
+        f %= dur
+        if f < 0:
+            f += dur
+        if f == 0:
+            f = dur
+    elif mode == 'PING_PONG':
+        pp = 2 * (dur - 1)
+        if pp <= 0:
+            f = 1
+        else:
+            f %= pp
+            if f < 0:
+                f += pp
+            if f == 0:
+                f = pp
+            if f > dur:
+                f = dur - (f - dur)
+    return f + vol.frame_offset
+
+
+def domain_placement(o, ds):
+    """Blender's manta_set_domain_from_mesh for a non-adaptive gas domain:
+    resolution per axis, local cell size and the index -> local matrix
+    (voxel i at p0 + (i + 0.5) * cell), computed in float32 as Blender does."""
+    verts = o.data.vertices
+    if len(verts) == 0:
+        raise ExportError(f"fluid domain '{o.name}' has no vertices")
+    lo = [min(f32(v.co[i]) for v in verts) for i in range(3)]
+    hi = [max(f32(v.co[i]) for v in verts) for i in range(3)]
+    size_local = [f32(hi[i] - lo[i]) for i in range(3)]
+    scale = [f32(x) for x in o.scale]
+    size = [f32(abs(f32(size_local[i] * scale[i]))) for i in range(3)]
+    res_max = int(ds.resolution_max)
+    if size[0] >= max(size[1], size[2]):
+        axis = 0
+    elif size[1] >= max(size[0], size[2]):
+        axis = 1
+    else:
+        axis = 2
+    sc = f32(res_max / size[axis])
+    res = [0, 0, 0]
+    for i in range(3):
+        res[i] = res_max if i == axis else max(int(f32(f32(size[i] * sc) + 0.5)), 4)
+    cell = [f32(size_local[i] / res[i]) for i in range(3)]
+    # Mantaflow writes the cache with a uniform voxel of the largest world
+    # dimension / resolution (checked against the file when there is one).
+    dx = size[axis] / res_max
+    m = Matrix.Identity(4)
+    for i in range(3):
+        m[i][i] = cell[i]
+        m[i][3] = lo[i] + 0.5 * cell[i]
+    return {'res': res, 'cell': cell, 'p0': lo, 'dx': dx, 'index_to_local': m}
+
+
+def blender_output_pattern(filepath, blend_path):
+    """Blender's output path with the frame as '#' (Blender appends four
+    digits when the path has no '#'), absolute."""
+    p = filepath or '//'
+    if p.startswith('//'):
+        base = os.path.dirname(blend_path) if blend_path else os.getcwd()
+        p = os.path.join(base, p[2:])
+    p = os.path.abspath(p) + (os.sep if p.endswith(('/', os.sep)) else '')
+    d, name = os.path.split(p)
+    if '#' not in name:
+        stem, ext = os.path.splitext(name)
+        if ext.lower() in ('.exr', '.png', '.jpg', '.tif', '.tiff'):
+            name = stem
+        name += '####'
+    return os.path.join(d, name)
+
+
+# ------------------------------------------------------------- writing
+
+def write_scene(path, text):
+    """Atomic write (temporary name, then rename); raises ExportError."""
+    path = os.path.abspath(path)
+    d = os.path.dirname(path)
+    if not os.path.isdir(d):
+        raise ExportError(f"cannot write {path}: folder {d} does not exist")
+    tmp = os.path.join(d, f'.{os.path.basename(path)}.{os.getpid()}.tmp')
+    try:
+        with open(tmp, 'w', encoding='utf-8') as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except OSError as e:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise ExportError(f'cannot write {path}: {e.strerror or e}') from None
+
+
+def export_scene(path, scene=None, view_layer=None, warn=None, **kw):
+    """Exports `scene` (default: the context's) to `path`; returns the
+    Exporter (its .warnings). Raises ExportError."""
+    scene = scene or bpy.context.scene
+    if view_layer is None:
+        try:
+            view_layer = bpy.context.view_layer if bpy.context.scene == scene else None
+        except AttributeError:
+            view_layer = None
+    ex = Exporter(scene, view_layer=view_layer, warn=warn, **kw)
+    doc = ex.export()
+    write_scene(path, to_toml(doc))
+    return ex
+
+
+# ------------------------------------------------------------------ add-on
+
+try:
+    from bpy_extras.io_utils import ExportHelper
+except ImportError:  # pragma: no cover
+    ExportHelper = object
+
+
+class EXPORT_SCENE_OT_vdbphoton(bpy.types.Operator, ExportHelper):
+    """Export Volume objects, smoke domains, camera, lights and world as a vdbphoton scene"""
+    bl_idname = 'export_scene.vdbphoton'
+    bl_label = 'Export vdbphoton scene'
+    bl_options = {'PRESET'}
+    filename_ext = '.toml'
+    filter_glob: bpy.props.StringProperty(default='*.toml', options={'HIDDEN'})
+    frames: bpy.props.StringProperty(
+        name='Frames', default='',
+        description="Frame list like 1-40 or 1-3,5,7-20:2 (empty: the scene's range)")
+    output: bpy.props.StringProperty(
+        name='Output', default='',
+        description="EXR path with {frame:04} or #### (empty: the scene's output path); "
+                    "relative to the scene file")
+    temperature_from_flame: bpy.props.BoolProperty(
+        name='Temperature from flame', default=False,
+        description="For smoke domains, write temperature_from_flame (Blender's fire "
+                    "temperature; needs a vdbphoton that reads that key)")
+
+    def execute(self, context):
+        msgs = []
+        try:
+            ex = export_scene(self.filepath, context.scene, context.view_layer,
+                              warn=lambda kind, m: msgs.append((kind, m)),
+                              frames=self.frames or None, output=self.output or None,
+                              temperature_from_flame=self.temperature_from_flame)
+        except ExportError as e:
+            self.report({'ERROR'}, str(e))
+            return {'CANCELLED'}
+        for kind, m in msgs:
+            self.report({'WARNING'} if kind == 'warning' else {'INFO'}, m)
+            print(f'{PREFIX}: {kind}: {m}', file=sys.stderr)
+        self.report({'INFO'}, f'Exported {self.filepath} ({len(ex.warnings)} warnings)')
+        return {'FINISHED'}
+
+
+def menu_func_export(self, context):
+    self.layout.operator(EXPORT_SCENE_OT_vdbphoton.bl_idname, text='vdbphoton scene (.toml)')
+
+
+def register():
+    bpy.utils.register_class(EXPORT_SCENE_OT_vdbphoton)
+    bpy.types.TOPBAR_MT_file_export.append(menu_func_export)
+
+
+def unregister():
+    bpy.types.TOPBAR_MT_file_export.remove(menu_func_export)
+    bpy.utils.unregister_class(EXPORT_SCENE_OT_vdbphoton)
+
+
+# ------------------------------------------------------------- command line
+
+USAGE = ("usage: blender -b FILE.blend -P vdbphoton_export.py -- OUT.toml [options]\n"
+         "       python vdbphoton_export.py FILE.blend OUT.toml [options]\n"
+         "options: --frames A-B  --output PATH.exr  --preview PATH.png  --no-preview\n"
+         "         --scene NAME  --temperature-from-flame")
+
+
+def main(argv):
+    import argparse
+    ap = argparse.ArgumentParser(prog='vdbphoton_export.py', usage=USAGE, add_help=True)
+    ap.add_argument('paths', nargs='+')
+    ap.add_argument('--frames')
+    ap.add_argument('--output')
+    ap.add_argument('--preview')
+    ap.add_argument('--no-preview', action='store_true')
+    ap.add_argument('--scene')
+    ap.add_argument('--temperature-from-flame', action='store_true')
+    try:
+        a = ap.parse_args(argv)
+    except SystemExit as e:
+        return 2 if e.code else 0
+    paths = a.paths
+    if len(paths) == 2 and paths[0].endswith('.blend'):
+        blend, out = paths
+        try:
+            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend), load_ui=False)
+        except Exception as e:  # noqa: BLE001
+            print(f'{PREFIX}: error: cannot open {blend}: {str(e).strip().splitlines()[-1]}',
+                  file=sys.stderr)
+            return 1
+    elif len(paths) == 1:
+        out = paths[0]
+        if not bpy.data.filepath:
+            print(f'{PREFIX}: error: no .blend file is open (give FILE.blend OUT.toml)',
+                  file=sys.stderr)
+            return 2
+    else:
+        print(USAGE, file=sys.stderr)
+        return 2
+    scene = bpy.data.scenes.get(a.scene) if a.scene else bpy.context.scene
+    if scene is None:
+        print(f"{PREFIX}: error: no scene '{a.scene}' (scenes: "
+              f"{', '.join(s.name for s in bpy.data.scenes)})", file=sys.stderr)
+        return 1
+
+    def warn(kind, m):
+        print(f'{PREFIX}: {kind}: {m}', file=sys.stderr, flush=True)
+
+    try:
+        ex = export_scene(out, scene, None, warn=warn, frames=a.frames,
+                          output=a.output, preview=a.preview, no_preview=a.no_preview,
+                          temperature_from_flame=a.temperature_from_flame)
+    except ExportError as e:
+        print(f'{PREFIX}: error: {e}', file=sys.stderr)
+        return 1
+    print(f"{PREFIX}: wrote {os.path.abspath(out)} ({len(ex.warnings)} warnings)")
+    return 0
+
+
+def _cli_args():
+    """Arguments after '--' (blender -P), else after the script (python)."""
+    if '--' in sys.argv:
+        return sys.argv[sys.argv.index('--') + 1:]
+    if bpy.app.background and os.path.basename(sys.argv[0]).startswith('blender'):
+        return []
+    return sys.argv[1:]
+
+
+if __name__ == '__main__':
+    code = main(_cli_args())
+    sys.stdout.flush()
+    sys.stderr.flush()
+    if os.path.basename(sys.argv[0]).lower().startswith('blender'):
+        sys.exit(code)
+    # The bpy module: exit at once (Mantaflow objects of an opened .blend can
+    # abort in their destructors at interpreter exit).
+    os._exit(code)
