@@ -1,10 +1,12 @@
 //! The photon integrator against the reference path tracer and closed
-//! forms: a white furnace, the σs factor of the estimate (a doubled or
-//! missing σs fails), small scenes of thin and dense media under a sun, a
-//! spot, an environment and with blackbody emission (converged relative
-//! MSE below a bound, and falling with the passes), point and beam
-//! estimates on the same photon maps, and the same image on one and two
-//! threads.
+//! forms: a white furnace, the σs factor of the estimate in a box and a
+//! large sphere (a doubled or missing σs fails), overlapping emissive
+//! volumes (emission counted once), small scenes of thin and dense media
+//! under a sun, a spot, a point light, a constant environment, an
+//! environment map and with blackbody emission (converged relative MSE
+//! below a bound, and falling with the passes), point and beam estimates
+//! on the same photon maps compared per block of pixels, and the same
+//! image on one and two threads.
 
 mod common;
 
@@ -12,7 +14,7 @@ use glam::{DAffine3, Vec3};
 use vdbphoton::camera::Camera;
 use vdbphoton::film::{Film, Region};
 use vdbphoton::integrator::{render_pass, Integrator, PathIntegrator, PhotonIntegrator};
-use vdbphoton::light::{Environment, Light};
+use vdbphoton::light::{EnvMap, Environment, Light};
 use vdbphoton::medium::{ExtraGrids, Material, Media, Principled, Volume};
 use vdbphoton::phase::PhaseFunction;
 use vdbphoton::scene::{Estimate, PhotonSettings};
@@ -203,6 +205,185 @@ fn multiple_scattering_carries_sigma_s_once() {
     assert!((ma / mb - 1.0).abs() < 0.03, "image mean {ma} against {mb}");
 }
 
+/// The mean over the image of an AOV layer of `film` (made with AOVs).
+fn layer_mean(film: &Film, name: &str) -> f64 {
+    let img = film.to_image().unwrap();
+    let l = img.layer(name).unwrap();
+    l.data().iter().map(|&v| v as f64).sum::<f64>() / l.data().len() as f64
+}
+
+#[test]
+fn overlapping_emissive_volumes_emit_once() {
+    // Two identical emissive boxes on top of each other (each σa = 0.5,
+    // σs = 2, emission 1 per unit length) are one box of σa = 1, σs = 4,
+    // emission 2. Photons from the media carry the emission of the volume
+    // whose cell emitted them: taking the sum over all volumes there counts
+    // the overlap twice. The emission they deliver after scattering is in
+    // the `emission` AOV with the emission the march sees directly; it is
+    // compared with the path tracer's on the single box.
+    let emissive = |sa: f32, ss: f32, e: f32| {
+        let m = Material::Raw {
+            sigma_a: Rgb::splat(sa),
+            sigma_s: Rgb::splat(ss),
+            emission: Rgb::splat(e),
+            phase: PhaseFunction::hg(0.3),
+        };
+        Volume::new(
+            "box",
+            common::unit_box_grid(),
+            ExtraGrids::default(),
+            m,
+            DAffine3::from_scale(glam::DVec3::splat(0.6)),
+        )
+        .unwrap()
+    };
+    let two = world(
+        vec![emissive(0.5, 2.0, 1.0), emissive(0.5, 2.0, 1.0)],
+        vec![],
+        Rgb::ZERO,
+    );
+    let one = world(vec![emissive(1.0, 4.0, 2.0)], vec![], Rgb::ZERO);
+    let reference = layer_mean(&path_reference(&one, 256, 256), "emission");
+    // The part seen without scattering (what the march computes itself).
+    let unscattered = layer_mean(&path_reference(&one, 64, 0), "emission");
+    let photon = |w: &World| {
+        let mut ph = PhotonIntegrator::new(w, settings(20_000), 256, 3).unwrap();
+        layer_mean(&run(w, &mut ph, 3, 8, true, |_, _| {}), "emission")
+    };
+    let (a, b) = (photon(&two), photon(&one));
+    eprintln!(
+        "emission: two boxes {a:.4}, one box {b:.4}, path tracer {reference:.4} \
+         (of which unscattered {unscattered:.4})"
+    );
+    // Measured (8 passes of 20,000 photons): two boxes 0.1783, one box
+    // 0.1784, the path tracer 0.1832 (256 spp), of which 0.0677 unscattered:
+    // the photons carry the other 63 %. Counting the overlap twice gave
+    // 0.2889 for the two boxes (the unscattered part plus twice the
+    // scattered one, 0.2987, less the photon estimate's bias). The photon
+    // images are 2.7 % below the path tracer's, the kernel's blur at the
+    // boxes' faces (32 passes: 1.8 %), the same for both worlds.
+    assert!(
+        unscattered < 0.5 * reference,
+        "most of the emission must reach the camera through photons: {unscattered} of {reference}"
+    );
+    assert!(
+        (a / b - 1.0).abs() < 0.02,
+        "two overlapping boxes {a} against one box of their sum {b}"
+    );
+    for (name, x) in [("two overlapping boxes", a), ("one box", b)] {
+        assert!(
+            (x / reference - 1.0).abs() < 0.05,
+            "{name}: emission {x} against the path tracer's {reference}"
+        );
+    }
+}
+
+/// The mean of AOV `name` over blocks of `bw` x `bh` pixels, row-major.
+fn block_means(film: &Film, name: &str, bw: u32, bh: u32) -> Vec<f64> {
+    let img = film.to_image().unwrap();
+    let layer = img.layer(name).unwrap();
+    let (nx, ny) = (W / bw, H / bh);
+    let mut out = vec![0.0f64; (nx * ny) as usize];
+    for y in 0..ny * bh {
+        for x in 0..nx * bw {
+            let v = layer.get(x as usize, y as usize);
+            out[((y / bh) * nx + x / bw) as usize] +=
+                v.iter().map(|&c| c as f64).sum::<f64>() / v.len() as f64;
+        }
+    }
+    for v in &mut out {
+        *v /= (bw * bh) as f64;
+    }
+    out
+}
+
+#[test]
+fn multiple_scattering_in_a_large_sphere_carries_sigma_s_once() {
+    // A homogeneous ball of radius 1 (σs = 4, σa = 0.4, HG g = 0.5, 4.4
+    // mean free paths to its centre) under a sun: most of what the camera
+    // sees has scattered more than once. The `indirect` AOV of the photon
+    // integrator (two seeds) against the path tracer's (two halves): the
+    // estimate is Σ p·Φ / V with Φ after the collision's weight, which is
+    // σs·L_s already. Multiplying it by σs again makes it 4x (+300 %),
+    // dividing by σs 1/4x (−75 %), storing the power before the
+    // collision's weight σs/σt 1.1x (+10 %).
+    let ball = Volume::new(
+        "ball",
+        common::ball_grid(1.0, 32),
+        ExtraGrids::default(),
+        raw(0.4, 4.0, 0.5),
+        DAffine3::IDENTITY,
+    )
+    .unwrap();
+    let sun = vec![Light::sun(Vec3::new(-0.3, -0.5, 1.0), Rgb::splat(3.0), 0.0)];
+    let w = world(vec![ball], sun, Rgb::ZERO);
+    let path = |seed| {
+        run(
+            &w,
+            &mut PathIntegrator::new(256),
+            seed,
+            1024,
+            true,
+            |_, _| {},
+        )
+    };
+    let photon = |seed| {
+        let mut ph = PhotonIntegrator::new(&w, settings(40_000), 256, seed).unwrap();
+        run(&w, &mut ph, seed, 16, true, |_, _| {})
+    };
+    let (ra, rb, pa, pb) = (path(77), path(78), photon(2), photon(3));
+    let m = |a: &Film, b: &Film| (layer_mean(a, "indirect") + layer_mean(b, "indirect")) * 0.5;
+    let (reference, estimate) = (m(&ra, &rb), m(&pa, &pb));
+    let direct = layer_mean(&ra, "direct");
+    eprintln!("ball: indirect {estimate:.5} against the path tracer's {reference:.5} (direct {direct:.5})");
+    // Measured: indirect 0.04050 against 0.04076 (−0.6 %; the two photon
+    // seeds differ by 1.1 %, the path tracer's halves by 0.15 %); the
+    // direct light is 0.0103.
+    assert!(
+        reference > 2.0 * direct,
+        "the ball must scatter most light more than once: {reference} against {direct}"
+    );
+    assert!(
+        (estimate / reference - 1.0).abs() < 0.03,
+        "indirect {estimate} against the path tracer's {reference}"
+    );
+    // Per block of 4x3 pixels, where the block holds at least a quarter of
+    // the brightest block's light (11 of the 36): within 4 standard errors
+    // of the difference (the half differences of each pair, pooled over
+    // those blocks as relative errors: 2.0 % measured) plus 4 % for the
+    // kernel's blur across the image (measured deviations up to 3.8 %).
+    let blocks = |f: &Film| block_means(f, "indirect", 4, 3);
+    let (bra, brb, bpa, bpb) = (blocks(&ra), blocks(&rb), blocks(&pa), blocks(&pb));
+    let brightest = bra.iter().zip(&brb).map(|(a, b)| a + b).fold(0.0, f64::max) * 0.5;
+    let bright: Vec<usize> = (0..bra.len())
+        .filter(|&i| (bra[i] + brb[i]) * 0.5 >= 0.25 * brightest)
+        .collect();
+    assert!(bright.len() >= 8, "too few bright blocks: {bright:?}");
+    let rel_var = bright
+        .iter()
+        .map(|&i| {
+            let (r, p) = ((bra[i] + brb[i]) * 0.5, (bpa[i] + bpb[i]) * 0.5);
+            ((bra[i] - brb[i]) * 0.5 / r).powi(2) + ((bpa[i] - bpb[i]) * 0.5 / p).powi(2)
+        })
+        .sum::<f64>()
+        / bright.len() as f64;
+    let se = rel_var.sqrt();
+    let mut worst = 0.0f64;
+    for &i in &bright {
+        let (r, p) = ((bra[i] + brb[i]) * 0.5, (bpa[i] + bpb[i]) * 0.5);
+        let dev = (p / r - 1.0).abs();
+        worst = worst.max(dev);
+        assert!(
+            dev < 4.0 * se + 0.04,
+            "block {i}: indirect {p} against the path tracer's {r} (standard error {se})"
+        );
+    }
+    eprintln!(
+        "ball: {} blocks, relative standard error {se:.4}, worst deviation {worst:.4}",
+        bright.len()
+    );
+}
+
 /// A case of the comparison with the path tracer: the world, the max
 /// bounces, and the bound on the relative MSE after 32 passes of 40,000
 /// photons, beyond the reference's own noise.
@@ -290,92 +471,212 @@ fn cases() -> Vec<Case> {
     ]
 }
 
+/// Renders `case` with the path tracer (two halves of 1024 spp) and 32
+/// passes of 40,000 photons, and checks the photon image's relative MSE
+/// beyond the reference's noise, the slope of its error over the passes
+/// and its mean.
+fn check_convergence(case: &Case) {
+    let w = &case.world;
+    // The reference in two independent halves: a quarter of their
+    // relative MSE against each other is the reference's own noise,
+    // taken off the photon image's error.
+    let half = |seed| {
+        run(
+            w,
+            &mut PathIntegrator::new(case.max_bounces),
+            seed,
+            1024,
+            false,
+            |_, _| {},
+        )
+        .mean_rgb()
+    };
+    let (ra, rb) = (half(77), half(78));
+    let reference: Vec<Rgb> = ra.iter().zip(&rb).map(|(a, b)| (*a + *b) * 0.5).collect();
+    let noise = rel_mse(&ra, &rb) / 4.0;
+    assert!(mean(&reference) > 1e-3, "{}: a black image", case.name);
+    let mut ph = PhotonIntegrator::new(w, settings(40_000), case.max_bounces, 9).unwrap();
+    let mut errors = Vec::new();
+    let last = run(w, &mut ph, 9, 32, false, |p, f| {
+        if p.is_power_of_two() {
+            errors.push((p as f64, rel_mse(&f.mean_rgb(), &reference)));
+        }
+    })
+    .mean_rgb();
+    let e = rel_mse(&last, &reference) - noise;
+    let slope = log_slope(&errors);
+    let ratio = mean(&last) / mean(&reference);
+    eprintln!(
+        "{}: relMSE {e:.2e} beyond the reference's noise {noise:.1e} (bound {:.0e}), slope {slope:.2}, mean ratio {ratio:.4}, errors {errors:?}",
+        case.name, case.bound
+    );
+    assert!(
+        e < case.bound,
+        "{}: relMSE {e} above {}",
+        case.name,
+        case.bound
+    );
+    assert!(
+        slope < -0.3,
+        "{}: the error does not fall with passes: {errors:?}",
+        case.name
+    );
+    assert!(
+        (ratio - 1.0).abs() < 0.02,
+        "{}: image mean ratio {ratio}",
+        case.name
+    );
+}
+
 #[test]
 fn converges_to_the_path_tracer() {
     for case in cases() {
-        let w = &case.world;
-        // The reference in two independent halves: a quarter of their
-        // relative MSE against each other is the reference's own noise,
-        // taken off the photon image's error.
-        let half = |seed| {
-            run(
-                w,
-                &mut PathIntegrator::new(case.max_bounces),
-                seed,
-                1024,
-                false,
-                |_, _| {},
-            )
-            .mean_rgb()
-        };
-        let (ra, rb) = (half(77), half(78));
-        let reference: Vec<Rgb> = ra.iter().zip(&rb).map(|(a, b)| (*a + *b) * 0.5).collect();
-        let noise = rel_mse(&ra, &rb) / 4.0;
-        assert!(mean(&reference) > 1e-3, "{}: a black image", case.name);
-        let mut ph = PhotonIntegrator::new(w, settings(40_000), case.max_bounces, 9).unwrap();
-        let mut errors = Vec::new();
-        let last = run(w, &mut ph, 9, 32, false, |p, f| {
-            if p.is_power_of_two() {
-                errors.push((p as f64, rel_mse(&f.mean_rgb(), &reference)));
+        check_convergence(&case);
+    }
+}
+
+/// A 32x16 sky: a small bright sun 45° up behind the cloud as the camera
+/// sees it (azimuth 65°-88°), a sky brighter towards the zenith and a dark
+/// ground.
+fn sky_map() -> EnvMap {
+    let (w, h) = (32, 16);
+    let mut t = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let mut c = if y < h / 2 {
+                Rgb::new(0.3, 0.45, 0.8) * (1.0 - y as f32 / h as f32)
+            } else {
+                Rgb::splat(0.05)
+            };
+            if (10..12).contains(&x) && (3..5).contains(&y) {
+                c += Rgb::new(60.0, 55.0, 45.0);
             }
-        })
-        .mean_rgb();
-        let e = rel_mse(&last, &reference) - noise;
-        let slope = log_slope(&errors);
-        let ratio = mean(&last) / mean(&reference);
-        eprintln!(
-            "{}: relMSE {e:.2e} beyond the reference's noise {noise:.1e} (bound {:.0e}), slope {slope:.2}, mean ratio {ratio:.4}, errors {errors:?}",
-            case.name, case.bound
-        );
-        assert!(
-            e < case.bound,
-            "{}: relMSE {e} above {}",
-            case.name,
-            case.bound
-        );
-        assert!(
-            slope < -0.3,
-            "{}: the error does not fall with passes: {errors:?}",
-            case.name
-        );
-        assert!(
-            (ratio - 1.0).abs() < 0.02,
-            "{}: image mean ratio {ratio}",
-            case.name
-        );
+            t.push(c);
+        }
+    }
+    EnvMap::new(w, h, t, 20.0)
+}
+
+#[test]
+fn converges_to_the_path_tracer_under_a_point_light_and_a_map() {
+    // The lights the cases above leave out: a point light beside the
+    // cloud (photons aimed at the cone around the volumes) and an
+    // importance-sampled environment map with a bright sun in it.
+    let mut map_world = world(vec![cloud(raw(0.3, 12.0, 0.5))], vec![], Rgb::ZERO);
+    map_world.environment = Environment::Map(Box::new(sky_map()));
+    let cases = [
+        Case {
+            name: "point light",
+            world: world(
+                vec![cloud(raw(0.5, 10.0, 0.3))],
+                vec![Light::Point {
+                    position: Vec3::new(-1.6, -1.4, 1.5),
+                    intensity: Rgb::splat(20.0),
+                }],
+                Rgb::ZERO,
+            ),
+            max_bounces: 256,
+            // Measured 7.0e-4, slope −0.96, mean ratio 0.984.
+            bound: 2e-3,
+        },
+        Case {
+            name: "environment map",
+            world: map_world,
+            max_bounces: 256,
+            // Measured 1.7e-3, slope −0.85, mean ratio 0.989.
+            bound: 4e-3,
+        },
+    ];
+    for case in &cases {
+        check_convergence(case);
     }
 }
 
 #[test]
 fn point_and_beam_estimates_agree() {
     // The same photon maps (same seed and pass numbers), gathered by beams
-    // and by point queries at every march step: the multiple scattering
-    // they see agrees within their noise and the difference of kernels.
-    let w = world(
+    // and by point queries at every march step, with the camera close on
+    // the cloud: the multiple scattering (`indirect`) they see agrees per
+    // block of 2x2 pixels within their noise and the difference of their
+    // kernels. Each estimate is rendered with two seeds; a block's standard
+    // error is that of the difference of the two means (the half
+    // differences of each pair, pooled over the block's 3x3 neighbourhood).
+    let mut w = world(
         vec![cloud(raw(0.2, 15.0, 0.3))],
         vec![Light::sun(Vec3::new(0.2, -0.6, 0.8), Rgb::splat(2.0), 0.0)],
         Rgb::ZERO,
     );
-    let indirect = |estimate| {
+    w.camera = Camera::new(
+        Vec3::new(0.3, -3.6, 0.6),
+        Vec3::new(-0.07, 0.0, 0.07),
+        Vec3::Z,
+        18.0,
+        W,
+        H,
+    );
+    let film = |estimate, seed| {
         let mut ph = PhotonIntegrator::new(
             &w,
             PhotonSettings {
                 estimate,
-                ..settings(20_000)
+                ..settings(40_000)
             },
             256,
-            4,
+            seed,
         )
         .unwrap();
-        let f = run(&w, &mut ph, 4, 8, true, |_, _| {});
-        let img = f.to_image().unwrap();
-        let l = img.layer("indirect").unwrap();
-        l.data().iter().map(|&v| v as f64).sum::<f64>() / l.data().len() as f64
+        run(&w, &mut ph, seed, 16, true, |_, _| {})
     };
-    let (beam, point) = (indirect(Estimate::Beam), indirect(Estimate::Point));
+    let (ba, bb) = (film(Estimate::Beam, 4), film(Estimate::Beam, 5));
+    let (pa, pb) = (film(Estimate::Point, 4), film(Estimate::Point, 5));
+    let (beam, point) = (
+        (layer_mean(&ba, "indirect") + layer_mean(&bb, "indirect")) * 0.5,
+        (layer_mean(&pa, "indirect") + layer_mean(&pb, "indirect")) * 0.5,
+    );
+    let blocks = |f: &Film| block_means(f, "indirect", 2, 2);
+    let (ba, bb, pa, pb) = (blocks(&ba), blocks(&bb), blocks(&pa), blocks(&pb));
+    let (nx, ny) = ((W / 2) as i32, (H / 2) as i32);
+    let var = |i: usize| ((ba[i] - bb[i]) * 0.5).powi(2) + ((pa[i] - pb[i]) * 0.5).powi(2);
+    let brightest = ba.iter().zip(&bb).map(|(a, b)| a + b).fold(0.0, f64::max) * 0.5;
+    let (mut z2, mut n, mut worst) = (0.0f64, 0usize, 0.0f64);
+    for i in 0..ba.len() {
+        let (b, p) = ((ba[i] + bb[i]) * 0.5, (pa[i] + pb[i]) * 0.5);
+        if b < 0.05 * brightest {
+            continue;
+        }
+        let (x, y) = (i as i32 % nx, i as i32 / nx);
+        let (mut s, mut k) = (0.0, 0.0);
+        for v in (y - 1).max(0)..=(y + 1).min(ny - 1) {
+            for u in (x - 1).max(0)..=(x + 1).min(nx - 1) {
+                s += var((v * nx + u) as usize);
+                k += 1.0;
+            }
+        }
+        let se = (s / k).sqrt();
+        let z = (p - b) / se;
+        z2 += z * z;
+        n += 1;
+        worst = worst.max((p - b).abs() / (4.0 * se + 0.03 * b));
+        assert!(
+            (p - b).abs() <= 4.0 * se + 0.03 * b,
+            "block {i}: point {p} against beam {b}, standard error {se}"
+        );
+    }
+    let z2 = z2 / n as f64;
+    eprintln!(
+        "point and beam: indirect {point:.5} and {beam:.5}, {n} blocks, mean z² {z2:.3}, worst {worst:.3} of the bound"
+    );
+    // Measured: indirect 0.1086 (point) and 0.1070 (beam), +1.5 %; 75
+    // blocks hold light, with relative standard errors of 7 % (the seeds'
+    // photon maps, shared by both estimates, dominate them), mean z² 0.2
+    // and the largest deviation 0.4 of its bound. Independent estimates
+    // would give a mean z² of 1; 2 allows for the kernels' difference, and
+    // a bias of one estimate of 10 % in the bright blocks exceeds it.
+    assert!(n >= 50, "too few blocks hold light: {n}");
+    assert!(z2 < 2.0, "mean z² {z2} of the blocks");
     assert!(beam > 1e-3);
     assert!(
-        (beam / point - 1.0).abs() < 0.04,
+        (point / beam - 1.0).abs() < 0.03,
         "beam {beam}, point {point}"
     );
 }

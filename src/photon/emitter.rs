@@ -8,8 +8,12 @@
 //! points of the cell, times its volume, and never less than a twentieth of
 //! the cell's emission bound so that no cell that may emit is left out),
 //! then a uniform point in the cell and an isotropic direction: a photon
-//! from point x carries 4π·ε(x)·V_cell / P(cell), ε being the radiance
-//! emitted per unit length (σa·Le).
+//! from point x carries 4π·ε_v(x)·V_cell / P(cell), ε_v being the radiance
+//! emitted per unit length (σa·Le) by the volume v the cell belongs to.
+//! Each volume's cells cover that volume's emission only: where volumes
+//! overlap, each emits its own photons, and a photon must not carry the
+//! others' emission too (the sum over the volumes at x would count the
+//! overlap once per volume).
 
 use crate::light::{BoundingSphere, EmittedRay};
 use crate::medium::Media;
@@ -156,7 +160,9 @@ impl Emitters {
         let vol = &media.volumes()[c.volume];
         let pi = c.lo + Vec3::new(u.x, u.y, v.x) * c.size;
         let p = vol.world_from_index().transform_point3(pi);
-        let e = media.eval(p).emission;
+        // This volume's emission only, as the cell's weight (see the module
+        // docs): `media.eval` would add the overlapping volumes' too.
+        let e = vol.eval(p).emission;
         if e.max_element() <= 0.0 || p_cell <= 0.0 {
             return None;
         }

@@ -171,10 +171,18 @@ pub fn chi2_test_with(
             expected[c * res_phi + p] = adaptive_simpson(&over_phi, c0, c1, 1e-9, 24) * n as f64;
         }
     }
-    // Pool bins whose expected count is below 5 into one.
+    chi2_counts(&observed, &expected)
+}
+
+/// χ² of `observed` counts against `expected` ones (the same bins, the
+/// same total): bins whose expected count is below 5 are pooled into one,
+/// and one degree of freedom is taken for the total. Counts in bins that
+/// expect none make the statistic huge (p-value 0).
+pub fn chi2_counts(observed: &[f64], expected: &[f64]) -> Chi2Result {
+    assert_eq!(observed.len(), expected.len());
     let (mut stat, mut dof) = (0.0, 0usize);
     let (mut pool_o, mut pool_e) = (0.0, 0.0);
-    for (o, e) in observed.iter().zip(&expected) {
+    for (o, e) in observed.iter().zip(expected) {
         if *e < 5.0 {
             pool_o += o;
             pool_e += e;
@@ -183,7 +191,7 @@ pub fn chi2_test_with(
             dof += 1;
         }
     }
-    if pool_e > 0.0 {
+    if pool_e > 0.0 || pool_o > 0.0 {
         stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e.max(1e-12);
         dof += 1;
     }

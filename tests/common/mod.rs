@@ -195,3 +195,53 @@ pub fn empty_grid(name: &str) -> Grid<f32> {
     );
     Grid::from_parts(GridParts::new(name, 0.0f32, xf)).unwrap()
 }
+
+/// A ball of density 1 and radius `radius` centred at the origin, on
+/// `n`^3 voxels (`n` a multiple of 8) spanning [−radius, radius]^3; a
+/// voxel holds the share of 4^3 points spread over it that fall inside
+/// the ball, so the edge is smooth to a voxel.
+pub fn ball_grid(radius: f64, n: i32) -> Grid<f32> {
+    assert!(n > 0 && n % 8 == 0, "n must be a positive multiple of 8");
+    let h = 2.0 * radius / n as f64;
+    let xf = DAffine3::from_scale_rotation_translation(
+        DVec3::splat(h),
+        DQuat::IDENTITY,
+        DVec3::splat(-radius + 0.5 * h),
+    );
+    let mut p = GridParts::new("density", 0.0f32, xf);
+    let cover = |i: IVec3| {
+        let mut inside = 0;
+        for s in 0..64 {
+            let o = DVec3::new((s & 3) as f64, ((s >> 2) & 3) as f64, (s >> 4) as f64);
+            let q = (i.as_dvec3() + (o + 0.5) / 4.0) * h - DVec3::splat(radius);
+            if q.length_squared() <= radius * radius {
+                inside += 1;
+            }
+        }
+        inside as f32 / 64.0
+    };
+    for bx in 0..n / 8 {
+        for by in 0..n / 8 {
+            for bz in 0..n / 8 {
+                let origin = IVec3::new(bx, by, bz) * 8;
+                let mut mask = [0u64; 8];
+                let mut any = false;
+                let mut values = [0.0f32; 512];
+                for (v, value) in values.iter_mut().enumerate() {
+                    let l = IVec3::new((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
+                    *value = cover(origin + l);
+                    if *value > 0.0 {
+                        mask[v >> 6] |= 1 << (v & 63);
+                        any = true;
+                    }
+                }
+                if any {
+                    p.brick_origins.push(origin);
+                    p.values.extend_from_slice(&values);
+                    p.masks.push(mask);
+                }
+            }
+        }
+    }
+    Grid::from_parts(p).unwrap()
+}
