@@ -73,7 +73,7 @@ fn main() {
                     }
                     _ => {
                         println!(
-                            "(no dense ground truth in {}: make it with\n  vdbphoton render {}/reference/cloud96_dense.toml --integrator path --spp 4096 --seed 1001 -o {}/cloud96_dense_a.exr --no-preview\n  and the same with --seed 2002 -o .../cloud96_dense_b.exr)",
+                            "(no dense ground truth in {}: make it with\n  vdbphoton render {}/reference/cloud96_dense.toml --integrator path --spp 1024 --seed 1001 -o {}/cloud96_dense_a.exr --no-preview\n  and the same with --seed 2002 -o .../cloud96_dense_b.exr)",
                             truth_dir.display(),
                             data.display(),
                             truth_dir.display()

@@ -251,10 +251,24 @@ fn load_volume(
     };
     let world_box = match (file_box, &vol) {
         (Some([lo, hi]), _) => Some(transform_box(&v.transform, lo, hi)),
-        (None, Some(vol)) => {
-            let (lo, hi) = vol.world_bounds();
-            Some([lo.as_dvec3(), hi.as_dvec3()])
-        }
+        (None, Some(vol)) => Some(match vol.density().active_bounds() {
+            // The active voxels, half a voxel beyond their centres.
+            Some((lo, hi)) => {
+                let m = vol.world_from_index();
+                let t = DAffine3::from_cols(
+                    m.matrix3.x_axis.as_dvec3(),
+                    m.matrix3.y_axis.as_dvec3(),
+                    m.matrix3.z_axis.as_dvec3(),
+                    m.translation.as_dvec3(),
+                );
+                transform_box(&t, lo.as_dvec3() - 0.5, hi.as_dvec3() + 0.5)
+            }
+            // Fire without smoke: the box the trackers use.
+            None => {
+                let (lo, hi) = vol.world_bounds();
+                [lo.as_dvec3(), hi.as_dvec3()]
+            }
+        }),
         (None, None) => None,
     };
     Ok((vol, world_box))

@@ -216,3 +216,57 @@ fn good_file_prints_its_grids() {
         "vdbphoton 0.1.0"
     );
 }
+
+/// A density or colour grid holding NaN or infinite values (a simulation
+/// that blew up) is refused at load with one line naming the file and the
+/// grid, not rendered into black or white pixels.
+#[test]
+fn nan_and_infinite_grids_are_refused_at_load() {
+    use glam::{DVec3, IVec3, Vec3};
+    let dir = common::tempdir();
+    let base = common::const_box(
+        "density",
+        1.0,
+        DVec3::splat(-0.5),
+        1.0 / 16.0,
+        IVec3::splat(2),
+    );
+    let nan = base.map_values("density", |_| f32::NAN).unwrap();
+    write_vdb(dir.path().join("nan.vdb"), &[AnyGrid::Float(nan)]).unwrap();
+    let colour = base
+        .map_values("color", |v| Vec3::new(v, f32::INFINITY, 0.5))
+        .unwrap();
+    write_vdb(
+        dir.path().join("colour.vdb"),
+        &[AnyGrid::Float(base.clone()), AnyGrid::Vec3(colour)],
+    )
+    .unwrap();
+    for (file, extra, grid) in [
+        ("nan.vdb", "", "density"),
+        ("colour.vdb", "color_grid = \"color\"\n", "color"),
+    ] {
+        let scene = dir.path().join(format!("{file}.toml"));
+        std::fs::write(
+            &scene,
+            format!(
+                "[render]\nwidth = 8\nheight = 8\nspp = 1\n[[volume]]\nfile = \"{file}\"\n{extra}"
+            ),
+        )
+        .unwrap();
+        let out = Command::new(BIN)
+            .current_dir(dir.path())
+            .args(["render", scene.to_str().unwrap(), "-o", "o.exr"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{file}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{file}: {err}");
+        assert!(
+            err.contains(file)
+                && err.contains(&format!("grid '{grid}'"))
+                && err.contains("NaN or infinite"),
+            "{file}: {err}"
+        );
+        assert!(!dir.path().join("o.exr").exists());
+    }
+}

@@ -117,3 +117,29 @@ fn metadata_name_length_that_took_gigabytes() {
         "{err}"
     );
 }
+
+/// The render hang of the second campaign: raw `sigma_a = 1e12` on a cloud
+/// (`tests/data/fuzz/sigma_a_1e12.toml`) is refused at load, at once, for
+/// both integrators, naming the file and the grid.
+#[test]
+fn absurd_absorption_is_refused_at_load() {
+    let scene = data("sigma_a_1e12.toml");
+    for integrator in ["path", "photon"] {
+        let dir = common::tempdir();
+        let out = dir.path().join("o.exr");
+        let err = assert_refused(
+            &[
+                "render".as_ref(),
+                scene.as_os_str(),
+                "--integrator".as_ref(),
+                integrator.as_ref(),
+                "-o".as_ref(),
+                out.as_os_str(),
+            ],
+            "cloud.vdb', grid 'density'",
+            Duration::from_secs(2),
+        );
+        assert!(err.contains("optical depth"), "{err}");
+        assert!(common::dir_entries(dir.path()).is_empty());
+    }
+}

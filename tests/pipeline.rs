@@ -262,6 +262,43 @@ fn sequence_mistakes_are_refused_before_anything_renders() {
 }
 
 #[test]
+fn sequence_bounds_keep_an_automatic_camera_fixed_over_the_frames() {
+    use vdbphoton::scene::{SceneDesc, VolumeBounds};
+    use vdbphoton::world::World;
+    // Frames 1 and 2 are clouds of other shapes: framed by each frame's
+    // own voxels the camera moves; framed by the sequence's box it stays.
+    let d = common::tempdir();
+    let dir = d.path();
+    sequence(dir, &[1, 2]);
+    ok(
+        dir,
+        &[
+            "generate",
+            "cloud",
+            "f_0002.vdb",
+            "--res",
+            "16",
+            "--seed",
+            "77",
+        ],
+    );
+    let p = scene(dir, "path", "");
+    let desc = SceneDesc::load(&p).unwrap();
+    let camera = |desc: &SceneDesc, frame| {
+        let d = vdbphoton::frames::scene_at(desc, Some(frame), None).unwrap();
+        World::load(&d).unwrap().camera.position()
+    };
+    let pattern = vdbphoton::sequence::PathPattern::new(&desc.volumes[0].file).unwrap();
+    let b = vdbphoton::world::sequence_file_box(&pattern, "density").unwrap();
+    let mut fixed = desc.clone();
+    fixed.volumes[0].bounds = VolumeBounds::Box(b);
+    assert_eq!(camera(&fixed, 1), camera(&fixed, 2));
+    let mut active = desc.clone();
+    active.volumes[0].bounds = VolumeBounds::Active;
+    assert_ne!(camera(&active, 1), camera(&active, 2));
+}
+
+#[test]
 fn frame_offset_shifts_the_frames_a_volume_reads() {
     // Film frames 1001-1002 read cache frames 1-2 (Blender's Start Frame
     // and Offset).
