@@ -152,7 +152,7 @@ pub fn write_side_by_side(
     let labels = [
         a_name.to_string(),
         b_name.to_string(),
-        format!("DIFFERENCE, FULL AT {scale:.3e}"),
+        format!("DIFFERENCE, FULL AT {scale:.1e}"),
     ];
     for (i, (pic, label)) in [show(a), show(b), diff].iter().zip(&labels).enumerate() {
         let x = gap + i * (w + gap);

@@ -37,7 +37,12 @@ adaptive sampling, no light tree, light sampling threshold 0, no path
 guiding, no denoising, box pixel filter of 1 px, volume precision FULL,
 volume clipping 0, volume interpolation Linear, unbiased (null scattering)
 volume integrator, Standard view transform with no look/exposure/gamma, all
-bounce limits = [render] max_bounces (transparent 1024).
+bounce limits (total, volume, diffuse, glossy, transmission) = B =
+max_bounces - 1 (transparent 1024): vdbphoton's max_bounces counts
+scattering events, Cycles counts bounces after the first one (Volume
+Bounces 0 still lights the first scattering event directly). max_bounces 0
+(no scattered light at all in vdbphoton) is refused for a scene whose
+volumes scatter, and is B = 0 otherwise.
 
 Mapping of the format onto Blender (conventions of docs/scene.md):
   [camera]      a perspective camera (Blender's: looks down its local -Z,
@@ -93,7 +98,11 @@ Mapping of the format onto Blender (conventions of docs/scene.md):
                 its edge; towards +Y Cycles u = 0.25, vdbphoton 0.75).
                 This script keeps Blender's mapping, so a scene with a map
                 shows that difference.
-  [[volume]]    a Volume object reading `file` (with the frame substituted);
+  [[volume]]    a Volume object reading `file` (with the frame + frame_offset
+                substituted, as vdbphoton reads it), render Space = World
+                (densities per world length, as vdbphoton's; Blender's default
+                Space = Object would divide them by the object's scale,
+                |M (1,1,1)/sqrt 3|);
                 `bounds` ("active", "sequence", "domain" or a box) is
                 checked and otherwise unused (it only steers vdbphoton's
                 automatic framing); transform translate/rotate
@@ -108,6 +117,17 @@ Mapping of the format onto Blender (conventions of docs/scene.md):
                 volume naming temperature_grid or flame_grid gets Blender's
                 Quick Smoke values for what its material leaves out:
                 Density 5, Blackbody Intensity 1 (as vdbphoton).
+                blackbody_interpolation = "temperature" is noted: the
+                Principled Volume's Temperature Attribute lookup takes one
+                voxel at a time (stochastic), which is vdbphoton's
+                "emission". temperature_from_flame is refused: Cycles can
+                only build that temperature with shader nodes on an
+                Attribute node, whose lookup interpolates the flame
+                trilinearly before the mapping (Blender maps each voxel);
+                measured on the Blender smoke frame 25, emission only: R +6 %,
+                G -6 %, B -24 %. Render the .blend with
+                test_export/render_blend.py instead, or export with
+                --cache-temperature.
   raw keys      Attribute(density_grid) drives Volume Scatter (Density =
                 max(sigma_s)*d, Color = sigma_s/max; HG Anisotropy g, one
                 node per lobe of an hg_mix with its weight share), Volume
@@ -117,8 +137,9 @@ Mapping of the format onto Blender (conventions of docs/scene.md):
 
 Keys it cannot reproduce stop the script with a message naming the key
 (phase "schlick", render.integrator other than "path", render.aovs = true, a
-seed beyond Cycles' 2^31 - 1, camera framing = "auto"). Unknown keys are
-errors, as in vdbphoton; scene errors exit with code 2.
+seed beyond Cycles' 2^31 - 1, camera framing = "auto", max_bounces = 0 with a
+scattering volume, temperature_from_flame). Unknown keys are errors, as in
+vdbphoton; scene errors exit with code 2.
 
 Known differences that are not errors (printed as notes): vdbphoton applies
 Emission Strength only where the density is > 0, and blackbody emission
@@ -295,7 +316,44 @@ RENDER_KEYS = ['width', 'height', 'spp', 'seed', 'max_bounces', 'integrator', 'o
                'preview', 'exposure', 'aovs', 'frames']
 
 
-def setup_render(scene, r, args):
+def scatters(v):
+    """Whether [[volume]] `v` scatters light (sigma_s > 0)."""
+    mat = v.get('material', {}) if isinstance(v, dict) else {}
+    if not isinstance(mat, dict):
+        return False
+    if any(k in mat for k in RAW_KEYS):
+        try:
+            return max(rgb(mat.get('sigma_s', 0.0), 'material.sigma_s')) > 0
+        except SceneError:
+            return False
+    smoke = 'temperature_grid' in v or 'flame_grid' in v
+    try:
+        d = num(mat.get('density', 5.0 if smoke else 1.0), 'material.density')
+        c = rgb(mat.get('color', 0.5), 'material.color')
+    except SceneError:
+        return False
+    return d > 0 and max(c) > 0
+
+
+def cycles_bounces(mb, vols):
+    """Cycles' bounce limit for vdbphoton's max_bounces. vdbphoton counts
+    scattering events (a path ends at event max_bounces + 1, before its
+    direct light); Cycles counts bounces after the first scattering event
+    (Volume Bounces 0 still lights the first event). So B = max_bounces - 1
+    (measured with the exporter: Cycles Volume 0 matches max_bounces 1
+    within 0.1 %, Volume 3 matches 4). max_bounces 0 (emission and
+    attenuation only) has no Cycles equivalent when a volume scatters."""
+    if mb == 0:
+        if any(scatters(v) for v in vols if isinstance(v, dict)):
+            fail("key 'max_bounces' in [render]: 0 means no scattered light at all in "
+                 "vdbphoton (a path ends at its first scattering event), which Cycles cannot "
+                 "do for a scattering volume (Volume Bounces 0 still lights the first "
+                 "scattering event); use max_bounces >= 1 (Cycles gets max_bounces - 1)")
+        return 0
+    return mb - 1
+
+
+def setup_render(scene, r, args, vols=()):
     check_keys(r, RENDER_KEYS, '[render]')
     if r.get('integrator', 'path') != 'path':
         fail(f"key 'integrator' in [render]: only \"path\" can be rendered with Cycles, got {r['integrator']!r}")
@@ -308,8 +366,12 @@ def setup_render(scene, r, args):
     mb = integer(r.get('max_bounces', 256), 'render.max_bounces')
     if not (0 <= seed <= 2147483647):
         fail(f"key 'seed' in [render]: Cycles' seed is 0 ..= 2147483647, got {seed}")
-    if mb > 1024:
-        fail(f"key 'max_bounces' in [render]: Cycles allows at most 1024, got {mb}")
+    if mb < 0:
+        fail(f"key 'max_bounces' in [render]: must be >= 0, got {mb}")
+    if mb > 1025:
+        fail(f"key 'max_bounces' in [render]: Cycles allows at most 1024 bounces "
+             f"(max_bounces 1025), got {mb}")
+    bounces = cycles_bounces(mb, vols)
 
     scene.render.engine = 'CYCLES'
     cy = scene.cycles
@@ -327,11 +389,11 @@ def setup_render(scene, r, args):
     cy.volume_biased = False
     cy.pixel_filter_type = 'BOX'
     cy.filter_width = 1.0
-    cy.max_bounces = mb
-    cy.volume_bounces = mb
-    cy.diffuse_bounces = mb
-    cy.glossy_bounces = mb
-    cy.transmission_bounces = mb
+    cy.max_bounces = bounces
+    cy.volume_bounces = bounces
+    cy.diffuse_bounces = bounces
+    cy.glossy_bounces = bounces
+    cy.transmission_bounces = bounces
     cy.transparent_max_bounces = 1024
     cy.min_light_bounces = 0
     cy.min_transparent_bounces = 0
@@ -357,7 +419,8 @@ def setup_render(scene, r, args):
     scene.render.image_settings.color_depth = '16' if args.half else '32'
     scene.render.image_settings.color_mode = 'RGBA'
     scene.render.image_settings.exr_codec = 'ZIP'
-    return dict(width=width, height=height, spp=spp, seed=seed, max_bounces=mb)
+    return dict(width=width, height=height, spp=spp, seed=seed, max_bounces=mb,
+                cycles_bounces=bounces)
 
 
 CAMERA_KEYS = ['position', 'look_at', 'up', 'vfov', 'focal_length', 'sensor_width',
@@ -663,6 +726,23 @@ def principled_material(nt, mat, v, where, notes):
     # Empty name: the attribute is not found and Cycles uses Temperature as is
     # (vdbphoton without a temperature_grid does the same).
     pv.inputs['Temperature Attribute'].default_value = v.get('temperature_grid', '') or ''
+    if 'temperature_from_flame' in v:
+        # Blender's fluid domain temperature, ignition + flame (max - ignition)
+        # where flame > 0.01, else 0, is made per voxel. A Volume object can
+        # only get it through shader nodes on an Attribute node, and Cycles
+        # interpolates an Attribute node's grid trilinearly (the Principled
+        # Volume's own Temperature Attribute lookup takes one voxel at a
+        # time): measured on the Blender smoke frame 25, emission only, the
+        # nodes give R +6 %, G -6 %, B -24 % against the same mapping stored
+        # per voxel, and an Attribute node reading a temperature grid gives
+        # 0.81 / 0.78 / 0.74 of the Principled lookup.
+        fail(f"key 'temperature_from_flame' in {where}: Cycles cannot make Blender's fluid "
+             "domain temperature from a Volume object's flame grid (shader nodes see the "
+             "flame interpolated between voxels, Blender maps each voxel: R +6 %, B -24 % "
+             "on the Blender smoke frame 25); render the .blend itself with "
+             "tools/blender/test_export/render_blend.py, or store the temperature as a grid "
+             "(ignition + flame x (max_temp - ignition) where flame > 0.01, else 0) and name "
+             "it in temperature_grid")
     if 'flame_grid' in v and es > 0:
         nt.links.new(times(nt, clamp0(nt, attribute(nt, v['flame_grid'])), es),
                      pv.inputs['Emission Strength'])
@@ -725,7 +805,7 @@ def raw_material(nt, mat, v, where, notes):
     for g, _ in lobes:
         if not (-1 <= g <= 1):
             fail(f"key 'phase.g' in {where}.material: must be in [-1, 1], got {g}")
-    for k in ('color_grid', 'flame_grid', 'temperature_grid'):
+    for k in ('color_grid', 'flame_grid', 'temperature_grid', 'temperature_from_flame'):
         if k in v:
             notes.append(f'{where}: {k} is ignored with raw coefficients (by vdbphoton too)')
     dens = clamp0(nt, attribute(nt, v.get('density_grid', 'density')))
@@ -772,14 +852,32 @@ def check_bounds(v, where):
 def setup_volume(scene, i, v, base, notes, frame):
     where = f'[[volume]] #{i + 1}'
     check_keys(v, ['file', 'density_grid', 'temperature_grid', 'flame_grid', 'color_grid',
-                   'transform', 'material', 'bounds'], where)
+                   'blackbody_interpolation', 'transform', 'material', 'bounds', 'frame_offset',
+                   'temperature_from_flame'], where)
     if 'file' not in v:
         fail(f"missing key 'file' in {where}")
     if not isinstance(v['file'], str):
         fail(f"key 'file' in {where}: expected a path, got {v['file']!r}")
     if 'bounds' in v:
         check_bounds(v, where)
-    path = resolve(base, with_frame(v['file'], frame))
+    offset = integer(v.get('frame_offset', 0), 'frame_offset')
+    if abs(offset) > MAX_FRAME:
+        fail(f"key 'frame_offset' in {where}: must be within +-{MAX_FRAME}, got {offset}")
+    bi = v.get('blackbody_interpolation', 'emission')
+    if bi not in ('emission', 'temperature'):
+        fail(f"key 'blackbody_interpolation' in {where}: expected \"emission\" or "
+             f"\"temperature\", got {bi!r}")
+    if bi == 'temperature' and 'temperature_grid' in v:
+        notes.append(f'{where}: blackbody_interpolation = "temperature": Cycles evaluates the '
+                     'blackbody per voxel (its stochastic one-tap lookup), as vdbphoton\'s '
+                     '"emission"; fire differs')
+    file_frame = frame
+    if frame is not None and has_frame_pattern(v['file']):
+        file_frame = frame + offset
+        if file_frame < 0:
+            raise FrameError(f"key 'frame_offset' in {where}: frame {frame} with frame_offset "
+                             f"{offset} is before frame 0")
+    path = resolve(base, with_frame(v['file'], file_frame))
     if not os.path.isfile(path):
         what = 'no such file' if not os.path.exists(path) else 'not a file'
         raise FrameError(f"key 'file' in {where}: {what}: {path}")
@@ -787,6 +885,10 @@ def setup_volume(scene, i, v, base, notes, frame):
     vol.filepath = path
     vol.render.precision = 'FULL'
     vol.render.clipping = 0.0
+    # Densities per world length, as vdbphoton's: with Blender's default
+    # Space = Object, Cycles divides them by the object's scale
+    # (object_volume_density: x 1 / |M (1,1,1)/sqrt 3|).
+    vol.render.space = 'WORLD'
     vo = bpy.data.objects.new(f'vol{i}', vol)
     scene.collection.objects.link(vo)
     vol.grids.load()
@@ -851,11 +953,12 @@ def build_scene(desc, args, base, frame, notes):
     scene = bpy.context.scene
     if frame is not None:
         scene.frame_set(frame)
-    info = setup_render(scene, desc.get('render', {}), args)
+    vols = desc.get('volume', [])
+    info = setup_render(scene, desc.get('render', {}), args,
+                        vols if isinstance(vols, list) else [])
     setup_camera(scene, desc.get('camera', {}))
     setup_lights(scene, desc.get('light', []))
     setup_world(scene, desc.get('environment', {}), base)
-    vols = desc.get('volume', [])
     if not isinstance(vols, list) or not vols:
         fail('no [[volume]]: a scene needs at least one volume')
     paths = []
@@ -982,7 +1085,8 @@ def main(argv):
         for n in notes:
             print('note:', n)
         print(f"{tag}SAMPLES {info['spp']} SEED {info['seed']} SIZE {info['width']}x{info['height']} "
-              f"MAX_BOUNCES {info['max_bounces']} THREADS {scene.render.threads}", flush=True)
+              f"MAX_BOUNCES {info['max_bounces']} (Cycles bounces {info['cycles_bounces']}) "
+              f"THREADS {scene.render.threads}", flush=True)
         t0 = time.time()
         bpy.ops.render.render(write_still=False)
         t1 = time.time()

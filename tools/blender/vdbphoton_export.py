@@ -4,7 +4,7 @@ Usage (any of):
 
     blender -b FILE.blend -P tools/blender/vdbphoton_export.py -- OUT.toml \
         [--frames A-B] [--output 'renders/frame_{frame:04}.exr'] [--preview P.png | --no-preview]
-        [--scene NAME] [--temperature-from-flame]
+        [--scene NAME] [--cache-temperature]
     VENV/bin/python tools/blender/vdbphoton_export.py FILE.blend OUT.toml [same options]
     as an add-on: File > Export > vdbphoton scene (.toml)
 
@@ -40,13 +40,17 @@ CLI):
              material becomes [volume.material], every key written. A
              Volume object with Space = Object (Blender's default) has its
              densities and emission scaled by 1 / |M (1,1,1)/sqrt 3|, as
-             Cycles does. A domain's `temperature` attribute is derived by
-             Blender from the flame grid; the cache's `temperature` grid
-             (the heat) is exported instead, with a warning
-             (--temperature-from-flame writes the proposed key
-             temperature_from_flame). A sequence or cache whose file number
-             is not the frame gets frame_offset (file = frame + offset),
-             also a proposed key.
+             Cycles does. A domain's `temperature` attribute is made by
+             Blender from the flame grid (ignition + flame x (max_temp -
+             ignition) where flame > 0.01, else 0; 0 everywhere when the
+             domain has no fire): a domain with fire (a Fire or Fire + Smoke
+             flow, or a 'flame' grid in its cache) gets temperature_grid =
+             "flame" and temperature_from_flame = [Flame Ignition, Maximum
+             Temperature], which vdbphoton maps the same way;
+             --cache-temperature uses the cache's `temperature` grid (the
+             heat x 2) instead. A sequence or cache whose file number is not
+             the frame gets frame_offset (vdbphoton reads file frame +
+             frame_offset).
 
 Warnings go to stderr as `vdbphoton_export: warning: ...`, each naming the
 object, material and node concerned. Fatal problems (no camera, nothing
@@ -276,14 +280,14 @@ def pattern_path(pattern, frame):
 
 class Exporter:
     def __init__(self, scene, view_layer=None, frames=None, output=None, preview=None,
-                 no_preview=False, temperature_from_flame=False, warn=None, blend_path=None):
+                 no_preview=False, cache_temperature=False, warn=None, blend_path=None):
         self.scene = scene
         self.view_layer = view_layer or scene.view_layers[0]
         self.frames_arg = frames
         self.output_arg = output
         self.preview_arg = preview
         self.no_preview = no_preview
-        self.temperature_from_flame = temperature_from_flame
+        self.cache_temperature = cache_temperature
         self.warnings = []
         self.notes = []
         self._warn_cb = warn
@@ -756,8 +760,11 @@ class Exporter:
                       "computed from the domain settings alone")
         T = o.matrix_world @ place['index_to_local'] @ F.inverted()
         mat = self.object_material(o)
-        fire = (ds.flame_ignition, ds.flame_max_temp)
-        resolve = lambda attr: self.domain_attribute(attr, names, what, fire)  # noqa: E731
+        fire = self.domain_fire(o, ds, names)
+        if fire:
+            comment.append(f"fire: {fire}; flame ignition {ds.flame_ignition:g}, maximum "
+                           f"temperature {ds.flame_max_temp:g}")
+        resolve = lambda attr: self.domain_attribute(attr, names, what, ds, fire)  # noqa: E731
         m = self.export_material(o, mat, resolve, types, comment, names, domain=True)
         if m is None:
             return None
@@ -775,22 +782,53 @@ class Exporter:
         entry['_comment'] = comment
         return entry
 
-    def domain_attribute(self, attr, names, what, fire):
-        """(grid, factor, extra keys) for a domain attribute, or None."""
+    def domain_fire(self, o, ds, names):
+        """Why Blender's domain `o` has fire, or None. Blender allocates the
+        fire fields (flame, and the temperature attribute made from it) when
+        a Fire or Fire + Smoke flow takes part in the simulation, and a baked
+        cache of such a domain holds a 'flame' grid."""
+        if names is not None and 'flame' in names:
+            return "its cache has a 'flame' grid"
+        group = ds.fluid_group
+        members = None if group is None else {x.name_full for x in group.all_objects}
+        for f in self.render_objects():
+            if f == o or (members is not None and f.name_full not in members):
+                continue
+            for mod in getattr(f, 'modifiers', []):
+                if mod.type == 'FLUID' and mod.fluid_type == 'FLOW' and mod.show_render and \
+                        mod.flow_settings.flow_type in ('FIRE', 'BOTH'):
+                    return f"flow '{f.name}' is of type {mod.flow_settings.flow_type}"
+        return None
+
+    def domain_attribute(self, attr, names, what, ds, fire):
+        """(grid, factor, extra keys) for a domain attribute; None or a
+        reason (str) when there is no grid for it."""
         if attr == 'temperature':
-            if self.temperature_from_flame:
-                if names is not None and 'flame' not in names:
+            # Blender's domain `temperature` attribute is made from the flame
+            # grid (rna_fluid.cc, rna_FluidModifier_temperature_grid_get):
+            # ignition + flame x (max_temp - ignition) where flame > 0.01,
+            # else 0; 0 everywhere without fire. The cache's `temperature`
+            # grid is Mantaflow's heat x 2, > 0 where smoke is hot but not
+            # burning too.
+            if self.cache_temperature:
+                if names is not None and 'temperature' not in names:
                     return None
-                return ('flame', 1.0, {'temperature_from_flame': [g7(fire[0]), g7(fire[1])]})
-            if names is not None and 'temperature' not in names:
-                return None
-            self.warn(f"{what}: Blender derives the domain's 'temperature' attribute from the "
-                      f"flame grid ({fire[0]:g} + flame x ({fire[1]:g} - {fire[0]:g}) where flame "
-                      "> 0.01); the cache's 'temperature' grid (Mantaflow's heat x 2) is "
-                      "exported instead, so fire differs from Blender's (17 % dimmer on the "
-                      "shared frame 25); --temperature-from-flame writes the key "
-                      "temperature_from_flame (not yet in vdbphoton's scene format)")
-            return ('temperature', 1.0, {})
+                self.note(f"{what}: the cache's 'temperature' grid is exported as the "
+                          "temperature (--cache-temperature); Blender renders the temperature "
+                          f"it makes from the flame grid ({ds.flame_ignition:g} + flame x "
+                          f"({ds.flame_max_temp:g} - {ds.flame_ignition:g}) where flame > 0.01)")
+                return ('temperature', 1.0, {})
+            if not fire:
+                where = (f"in its Flow collection '{ds.fluid_group.name}'"
+                         if ds.fluid_group is not None else "in the scene")
+                return (f"but the domain has no fire (no 'flame' grid in its cache, no Fire or "
+                        f"Fire + Smoke flow {where}), so Blender's temperature attribute "
+                        "is 0 everywhere")
+            if names is not None and 'flame' not in names:
+                return ("which Blender makes from the 'flame' grid, but the cache has no "
+                        "'flame' grid" + (f" (grids: {', '.join(names)})" if names else ''))
+            return ('flame', 1.0, {'temperature_from_flame': [g7(ds.flame_ignition),
+                                                               g7(ds.flame_max_temp)]})
         if attr in DOMAIN_GRIDS:
             g, k = DOMAIN_GRIDS[attr]
             if names is not None and g not in names:
@@ -841,10 +879,11 @@ class Exporter:
 
     def attr_grid(self, ctx, node, input_name, attr, resolve, extra):
         r = resolve(attr)
-        if r is None:
+        if r is None or isinstance(r, str):
+            why = r or ("but the file has no grid for it"
+                        + (f" (grids: {', '.join(ctx.grid_names)})" if ctx.grid_names else ''))
             self.warn(f"{ctx.what}: {ctx.mname} node '{node.name}' reads attribute '{attr}' "
-                      f"({input_name}), but the file has no grid for it"
-                      + (f" (grids: {', '.join(ctx.grid_names)})" if ctx.grid_names else ''))
+                      f"({input_name}), {why}")
             return None
         g, k, keys = r
         extra.update(keys)
@@ -1002,6 +1041,13 @@ class Exporter:
         doc['light'] = self.export_lights(objects)
         doc['environment'] = self.export_world()
         for o in objects:
+            if o.type not in ('CAMERA', 'LIGHT') and invisible_to_rays(o):
+                # A fluid flow emitter, say: Cycles renders nothing of it.
+                if o.type == 'VOLUME' or any(m.type == 'FLUID' and m.fluid_type == 'DOMAIN'
+                                             for m in getattr(o, 'modifiers', [])):
+                    self.note(f"object '{o.name}' is invisible to every ray type (Object > "
+                              "Visibility > Ray Visibility); not exported")
+                continue
             if o.type == 'VOLUME':
                 v = self.export_volume_object(o)
                 if v is not None:
@@ -1134,6 +1180,16 @@ class MaterialContext:
                      "supported (a Principled Volume, or Volume Scatter and Volume Absorption "
                      "added together, are); not exported")
         return None
+
+
+RAY_VISIBILITY = ('visible_camera', 'visible_diffuse', 'visible_glossy', 'visible_transmission',
+                  'visible_volume_scatter', 'visible_shadow')
+
+
+def invisible_to_rays(o):
+    """Cycles renders nothing of an object whose ray visibilities are all
+    off (Blender 3.0+: Object > Visibility > Ray Visibility)."""
+    return all(hasattr(o, k) and not getattr(o, k) for k in RAY_VISIBILITY)
 
 
 def uses_nodes(idblock):
@@ -1314,10 +1370,10 @@ class EXPORT_SCENE_OT_vdbphoton(bpy.types.Operator, ExportHelper):
         name='Output', default='',
         description="EXR path with {frame:04} or #### (empty: the scene's output path); "
                     "relative to the scene file")
-    temperature_from_flame: bpy.props.BoolProperty(
-        name='Temperature from flame', default=False,
-        description="For smoke domains, write temperature_from_flame (Blender's fire "
-                    "temperature; needs a vdbphoton that reads that key)")
+    cache_temperature: bpy.props.BoolProperty(
+        name="Cache's temperature grid", default=False,
+        description="For smoke domains with fire, use the cache's 'temperature' grid (heat) "
+                    "instead of the temperature Blender makes from the flame grid")
 
     def execute(self, context):
         msgs = []
@@ -1325,7 +1381,7 @@ class EXPORT_SCENE_OT_vdbphoton(bpy.types.Operator, ExportHelper):
             ex = export_scene(self.filepath, context.scene, context.view_layer,
                               warn=lambda kind, m: msgs.append((kind, m)),
                               frames=self.frames or None, output=self.output or None,
-                              temperature_from_flame=self.temperature_from_flame)
+                              cache_temperature=self.cache_temperature)
         except ExportError as e:
             self.report({'ERROR'}, str(e))
             return {'CANCELLED'}
@@ -1355,7 +1411,7 @@ def unregister():
 USAGE = ("usage: blender -b FILE.blend -P vdbphoton_export.py -- OUT.toml [options]\n"
          "       python vdbphoton_export.py FILE.blend OUT.toml [options]\n"
          "options: --frames A-B  --output PATH.exr  --preview PATH.png  --no-preview\n"
-         "         --scene NAME  --temperature-from-flame")
+         "         --scene NAME  --cache-temperature")
 
 
 def main(argv):
@@ -1367,7 +1423,7 @@ def main(argv):
     ap.add_argument('--preview')
     ap.add_argument('--no-preview', action='store_true')
     ap.add_argument('--scene')
-    ap.add_argument('--temperature-from-flame', action='store_true')
+    ap.add_argument('--cache-temperature', action='store_true')
     try:
         a = ap.parse_args(argv)
     except SystemExit as e:
@@ -1402,7 +1458,7 @@ def main(argv):
     try:
         ex = export_scene(out, scene, None, warn=warn, frames=a.frames,
                           output=a.output, preview=a.preview, no_preview=a.no_preview,
-                          temperature_from_flame=a.temperature_from_flame)
+                          cache_temperature=a.cache_temperature)
     except ExportError as e:
         print(f'{PREFIX}: error: {e}', file=sys.stderr)
         return 1

@@ -9,18 +9,28 @@ Writes into OUTDIR:
                rolled, 42 mm lens on a 32 x 18 mm sensor, horizontal fit,
                shift), a sun and a point light, a dim constant world, a
                Volume object reading the image sequence CLOUD_####.vdb
-               (frame 25 exists) with a Principled Volume and a rotated,
-               non-uniformly scaled transform, and a Mantaflow smoke domain
-               (2.5 x 2.5 x 4.5, resolution 64, rotated 30 degrees about Z)
-               whose OpenVDB cache is CACHEDIR/data/fluid_data_0025.vdb.
+               (Start Frame 4, Offset 1: scene frame 25 shows file 23, the
+               one that exists) with a Principled Volume and a rotated,
+               non-uniformly scaled transform, and a Mantaflow smoke + fire
+               domain (2.5 x 2.5 x 4.5, resolution 64, rotated 30 degrees
+               about Z, Flame Ignition 1.5, Maximum Temperature 3.0 as in
+               blender_smoke/make_smoke_info.json, cache Offset 2: frame 25
+               reads CACHEDIR/data/fluid_data_0023.vdb) with Blender's Quick
+               Smoke fire material (Principled Volume, Density 5, Blackbody
+               Intensity 1, the rest default) and its Fire + Smoke flow
+               (a small sphere, invisible to every ray type, so that Blender
+               gives the domain fire and loads its flame grid).
                Render 192 x 144 at 50 %, frames 24-26, output
                //render/smoke_####.
   bad.blend    things the exporter cannot reproduce and must warn about:
                an area light, a soft point light, a Sky Texture world, a
                metaball and a mesh with volume materials, a plain mesh, and
-               a smoke domain whose cache (BADCACHEDIR, a file with only a
-               'density' grid) lacks the 'temperature' its fire material
-               reads; plus one Volume object so that there is something to
+               two smoke domains whose cache (BADCACHEDIR, a file with only
+               a 'density' grid) has no flame grid: 'Fire Domain' with a
+               (visible) Fire flow, whose fire material's temperature Blender
+               makes from the missing flame grid, and 'Smoke Domain' whose
+               Flow collection holds no flow (no fire: Blender's temperature
+               is 0); plus one Volume object so that there is something to
                export.
   nocam.blend  a Volume object and no camera.
 
@@ -121,9 +131,9 @@ def cloud_object(sc, cloud, name='Cloud'):
     vol = bpy.data.volumes.new(name)
     vol.filepath = cloud
     vol.is_sequence = True
-    vol.frame_start = 1
+    vol.frame_start = 4
     vol.frame_duration = 40
-    vol.frame_offset = 0
+    vol.frame_offset = 1
     vol.sequence_mode = 'CLIP'
     o = link(sc, name, vol)
     o.location = (0.9, 0.4, 0.85)
@@ -137,7 +147,7 @@ def cloud_object(sc, cloud, name='Cloud'):
 
 
 def domain(sc, cache, material, name='Smoke Domain', location=(-1.1, 0.8, 1.0),
-           rot_z=30.0):
+           rot_z=30.0, offset=0, flow_group=None):
     o = link(sc, name, cube_mesh(name))
     o.location = location
     o.rotation_euler = (0.0, 0.0, math.radians(rot_z))
@@ -152,8 +162,42 @@ def domain(sc, cache, material, name='Smoke Domain', location=(-1.1, 0.8, 1.0),
     ds.cache_data_format = 'OPENVDB'
     ds.cache_frame_start = 1
     ds.cache_frame_end = 40
+    ds.cache_frame_offset = offset
+    ds.flame_ignition = 1.5
+    ds.flame_max_temp = 3.0
+    if flow_group is not None:
+        ds.fluid_group = flow_group
     o.data.materials.append(material)
     ds.cache_directory = cache  # last: changing settings afterwards deletes the cache
+    return o
+
+
+def quick_smoke_fire(name='Smoke Domain Material'):
+    """Blender's Quick Smoke material with fire (object_quick_effects.py):
+    a Principled Volume with Density 5 and Blackbody Intensity 1, the rest
+    default (Color 0.5, Temperature 1000 K x attribute 'temperature')."""
+    return principled(name, **{'Density': 5.0, 'Blackbody Intensity': 1.0})
+
+
+def fire_flow(sc, name, location, radius=0.2, visible=False):
+    """A Fire + Smoke flow: Blender gives a domain fire (allocates and loads
+    its flame grid) only when such a flow takes part. Invisible to every
+    ray type unless `visible`, so Cycles renders nothing of it."""
+    me = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=16, v_segments=8, radius=radius)
+    bm.to_mesh(me)
+    bm.free()
+    o = link(sc, name, me)
+    o.location = location
+    m = o.modifiers.new('Fluid', 'FLUID')
+    m.fluid_type = 'FLOW'
+    m.flow_settings.flow_type = 'BOTH'
+    m.flow_settings.flow_behavior = 'INFLOW'
+    if not visible:
+        for k in ('visible_camera', 'visible_diffuse', 'visible_glossy', 'visible_transmission',
+                  'visible_volume_scatter', 'visible_shadow'):
+            setattr(o, k, False)
     return o
 
 
@@ -179,8 +223,8 @@ def main():
     po.location = (-0.5, -2.5, 3.0)
     world_colour(sc, (0.05, 0.06, 0.08))
     cloud_object(sc, cloud)
-    domain(sc, cache, principled('Smoke Domain Material', **{
-        'Density': 4.0, 'Color': (0.8, 0.8, 0.85, 1.0), 'Anisotropy': 0.2}))
+    fire_flow(sc, 'Emitter', (-1.1, 0.8, -0.6))
+    domain(sc, cache, quick_smoke_fire(), offset=2)
     bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, 'main.blend'))
 
     # ----------------------------------------------------------------- bad
@@ -208,9 +252,15 @@ def main():
     fog.data.materials.append(principled('Fog material', Density=0.5))
     link(sc, 'Ground', cube_mesh('Ground', 1.0)).location = (0, 0, -3)
     cloud_object(sc, cloud)
+    fire_flow(sc, 'Torch', (0.0, 0.0, -0.5), visible=True)
     domain(sc, bad_cache, principled('Fire material', **{
         'Density': 5.0, 'Blackbody Intensity': 1.0, 'Temperature Attribute': 'temperature'}),
         name='Fire Domain')
+    no_flows = bpy.data.collections.new('No flows')
+    no_flows.use_fake_user = True  # kept in the file although empty and unlinked
+    domain(sc, bad_cache, principled('Smoke material', **{
+        'Density': 5.0, 'Blackbody Intensity': 1.0, 'Temperature Attribute': 'temperature'}),
+        name='Smoke Domain', location=(1.5, 0.8, 1.0), flow_group=no_flows)
     bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, 'bad.blend'))
 
     # --------------------------------------------------------------- nocam

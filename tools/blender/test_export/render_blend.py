@@ -13,13 +13,17 @@ Usage:
 
 Smoke domains: with manta_fix.py the bpy module reads the Mantaflow cache
 and Cycles renders the domain itself; the script checks that the domain's
-density was read and prints `CYCLES_DOMAIN real NAME`. If that fails (or
-with --substitute-domains), the domain is replaced by a Volume object reading
+density was read and prints `CYCLES_DOMAIN real NAME` (with ` fire flame
+max F` when Blender gave the domain fire and its flame grid was read, or
+` no fire`). Blender gives a domain fire only when a Fire or Fire + Smoke
+flow takes part (or the cache's config says so); then its `temperature`
+attribute is made from the flame grid. If reading fails (or with
+--substitute-domains), the domain is replaced by a Volume object reading
 the same cache file, placed as Blender places a domain's voxels (voxel i at
 local p0 + (i + 0.5) * cell, cell = local size / resolution), and the
-script prints `CYCLES_DOMAIN substitute NAME`. Either way Cycles samples the
-cache's own values (a domain's `temperature` attribute aside: Blender
-derives it from the flame grid).
+script prints `CYCLES_DOMAIN substitute NAME`: it samples the cache's own
+grids, so its `temperature` is the cache's grid, not Blender's (fire
+differs).
 
 Prints RENDER_TIME and exits 0 when OUT.exr is written.
 """
@@ -98,13 +102,17 @@ def gas_domains(sc):
 
 
 def domain_loaded(sc, o):
+    """(density read, maximum of the flame grid or None without fire)."""
     dg = bpy.context.evaluated_depsgraph_get()
     ev = o.evaluated_get(dg)
     for mod in ev.modifiers:
         if mod.type == 'FLUID' and mod.fluid_type == 'DOMAIN':
-            d = mod.domain_settings.density_grid
-            return len(d) > 0 and max(d) > 0.0
-    return False
+            ds = mod.domain_settings
+            d = ds.density_grid
+            f = ds.flame_grid
+            flame = max(f) if len(f) > 0 and max(f) > 0.0 else None
+            return len(d) > 0 and max(d) > 0.0, flame
+    return False, None
 
 
 def substitute(sc, o, mod, frame):
@@ -163,8 +171,10 @@ def main(argv):
     unbiased(sc, a.spp, a.seed, a.threads, os.path.abspath(a.out))
     sc.frame_set(a.frame)
     for o, mod in gas_domains(sc):
-        if fixed and domain_loaded(sc, o):
-            print(f"CYCLES_DOMAIN real '{o.name}'")
+        loaded, flame = domain_loaded(sc, o) if fixed else (False, None)
+        if loaded:
+            fire = 'no fire' if flame is None else f'fire flame max {flame:.6g}'
+            print(f"CYCLES_DOMAIN real '{o.name}' {fire}")
         else:
             substitute(sc, o, mod, a.frame)
             print(f"CYCLES_DOMAIN substitute '{o.name}'")
