@@ -92,9 +92,41 @@ fn main() {
             continue;
         };
         let mut desc = SceneDesc::load(&file).unwrap();
-        println!("\n== {}", file.display());
+        if let Some(n) = std::env::var("BENCH_PHOTONS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+        {
+            desc.render.photon.photons = n;
+        }
+        if let Some(a) = std::env::var("BENCH_ALPHA")
+            .ok()
+            .and_then(|v| v.parse().ok())
+        {
+            desc.render.photon.alpha = a;
+        }
+        if let Ok(e) = std::env::var("BENCH_ESTIMATE") {
+            desc.render.photon.estimate = match e.as_str() {
+                "point" => vdbphoton::scene::Estimate::Point,
+                _ => vdbphoton::scene::Estimate::Beam,
+            };
+        }
+        let choices: Vec<Choice> = std::env::var("BENCH_INTEGRATORS")
+            .unwrap_or_else(|_| "path,photon".into())
+            .split(',')
+            .map(|c| match c.trim() {
+                "path" => Choice::Path,
+                _ => Choice::Photon,
+            })
+            .collect();
+        println!(
+            "\n== {} (photons {} a pass, {:?} estimate, alpha {})",
+            file.display(),
+            desc.render.photon.photons,
+            desc.render.photon.estimate,
+            desc.render.photon.alpha
+        );
         for &budget in &budgets {
-            for choice in [Choice::Path, Choice::Photon] {
+            for &choice in &choices {
                 desc.render.integrator = choice;
                 desc.render.seed = 7;
                 let world = World::load(&desc).unwrap();

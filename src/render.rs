@@ -460,7 +460,6 @@ pub fn render_scene(
     let wants_photons = r.integrator != IntegratorChoice::Path;
     // Grids check what is left of the limit before they load.
     crate::memory::set_limit(opts.max_memory);
-    check_memory(desc, region, 0, wants_photons, opts.max_memory)?;
     if region.pixels() as u64 > LARGE_IMAGE_PIXELS {
         let film = Film::bytes_for(region.pixels(), r.aovs) as u64
             + region.pixels() as u64 * image_bytes_per_pixel(r.aovs);
@@ -473,6 +472,7 @@ pub fn render_scene(
             region.pixels() as f64 / (1920.0 * 1080.0)
         ));
     }
+    check_memory(desc, region, 0, wants_photons, opts.max_memory)?;
     // The preview's settings travel with the image, so that `merge` shows
     // merged tiles as the render would have.
     let mut extra = opts.attributes.clone();

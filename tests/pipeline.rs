@@ -694,6 +694,32 @@ fn new_users_get_one_clear_message_for_each_mistake() {
     let r = ok(dir, &["render", "s.toml", "-o", "q.exr", "-q"]);
     assert_eq!(r.stderr.lines().count(), 1, "{}", r.stderr);
     assert!(r.stderr.starts_with("rendered 16 x 12"), "{}", r.stderr);
+    // A huge image says what it will take before it starts (here it is
+    // then refused by the memory limit, at once).
+    let r = run(
+        dir,
+        &[
+            "render",
+            "s.toml",
+            "--width",
+            "65536",
+            "--height",
+            "2048",
+            "--max-memory",
+            "1G",
+            "-o",
+            "h.exr",
+        ],
+    );
+    assert_eq!(r.code, 1);
+    assert!(
+        r.stderr
+            .contains("a large image: 65536 x 2048 pixels (134 M)")
+            && r.stderr.contains("needs about"),
+        "{}",
+        r.stderr
+    );
+    assert!(!dir.join("h.exr").exists());
     // A misspelt table.
     std::fs::write(
         dir.join("l.toml"),
@@ -743,4 +769,34 @@ fn new_users_get_one_clear_message_for_each_mistake() {
         "{line}"
     );
     assert_eq!(line.lines().count(), 1);
+}
+
+/// The progress (and its ETA) counts tiles done; tiles come in a shuffled
+/// order, so a tenth of them is about a tenth of the work even when the
+/// top rows are empty sky (the default scene's ETA at 10 % was off 10x
+/// with rows in order).
+#[test]
+fn tiles_are_spread_over_the_image_in_render_order() {
+    use vdbphoton::film::Region;
+    let (w, h) = (320u32, 240u32);
+    let order = vdbphoton::integrator::tiles(Region::full(w, h));
+    assert_eq!(order.len(), 20 * 15);
+    let tenth = &order[..order.len() / 10];
+    // The first tenth reaches every quarter of the image's height, and its
+    // mean row is near the middle.
+    for q in 0..4 {
+        let (lo, hi) = (q * h / 4, (q + 1) * h / 4);
+        assert!(
+            tenth.iter().any(|t| t.y0 >= lo && t.y0 < hi),
+            "no early tile in rows {lo}..{hi}"
+        );
+    }
+    let mean_y = tenth.iter().map(|t| t.y0 as f64 + 8.0).sum::<f64>() / tenth.len() as f64;
+    assert!(
+        (mean_y - h as f64 / 2.0).abs() < h as f64 * 0.15,
+        "{mean_y}"
+    );
+    // Every pixel once.
+    let pixels: usize = order.iter().map(|t| t.pixels()).sum();
+    assert_eq!(pixels, (w * h) as usize);
 }

@@ -128,8 +128,10 @@ pub fn camera_sample(
     integrator.li(world, o, d, &mut rng, key)
 }
 
-/// The tiles of `region`, in a fixed shuffled order.
-fn tiles(region: Region) -> Vec<Region> {
+/// The tiles of `region`, in a fixed shuffled order: the share of tiles
+/// done is then a fair measure of the work done (rows of empty sky do not
+/// all come first), which the progress and its ETA rely on.
+pub fn tiles(region: Region) -> Vec<Region> {
     let mut t = Vec::new();
     let mut y = region.y0;
     while y < region.y1 {
