@@ -760,7 +760,8 @@ fn unknown_key_in_toml_names_key_and_line() {
     assert_eq!(
         toml_err(&text),
         "scene.toml:6: unknown key 'densty' in [[volume]] (expected one of: file, density_grid, \
-         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds)"
+         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds, \
+         frame_offset, temperature_from_flame)"
     );
     let text = format!("{VOL}[volume.material]\n\ndensity = 1\nanisotropi = 0.5\n");
     let msg = toml_err(&text);
@@ -786,7 +787,8 @@ fn unknown_key_in_json_names_key_and_line() {
     assert_eq!(
         err(json("{\n  \"render\": {\"width\": 8},\n  \"volume\": [\n    {\"file\": \"a\", \"densty\": 1}\n  ]\n}")),
         "scene.json:4: unknown key 'densty' in [[volume]] (expected one of: file, density_grid, \
-         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds)"
+         temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds, \
+         frame_offset, temperature_from_flame)"
     );
     assert_eq!(
         err(json("{\"volume\": [{\"file\": \"a\"}],\n \"camera\": {\"fov\": 3}}")),
