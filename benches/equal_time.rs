@@ -96,7 +96,7 @@ fn main() {
             .ok()
             .and_then(|v| v.parse().ok())
         {
-            desc.render.photon.photons = n;
+            desc.render.photon.photons = Some(n);
         }
         if let Some(a) = std::env::var("BENCH_ALPHA")
             .ok()
@@ -121,7 +121,9 @@ fn main() {
         println!(
             "\n== {} (photons {} a pass, {:?} estimate, alpha {})",
             file.display(),
-            desc.render.photon.photons,
+            desc.render
+                .photon
+                .photons_for(desc.render.width, desc.render.height),
             desc.render.photon.estimate,
             desc.render.photon.alpha
         );

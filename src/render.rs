@@ -104,7 +104,7 @@ fn check_memory(
     let film =
         Film::bytes_for(pixels as usize, r.aovs) as u64 + pixels * image_bytes_per_pixel(r.aovs);
     let photons = if photon {
-        r.photon.photons as u64 * PHOTON_PEAK_BYTES
+        r.photon.photons_for(r.width, r.height) as u64 * PHOTON_PEAK_BYTES
     } else {
         0
     };

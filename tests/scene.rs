@@ -108,7 +108,7 @@ fn defaults_when_keys_are_absent() {
             max_bounces: 256,
             integrator: Integrator::Auto,
             photon: PhotonSettings {
-                photons: 100_000,
+                photons: None,
                 k: 32,
                 radius: None,
                 alpha: 2.0 / 3.0,
@@ -496,7 +496,7 @@ fn photon_keys() {
     assert_eq!(
         s.render.photon,
         PhotonSettings {
-            photons: 5000,
+            photons: Some(5000),
             k: 12,
             radius: Some(0.25),
             alpha: 0.5,

@@ -70,8 +70,9 @@ impl Estimate {
 /// Settings of the photon integrator (`[render]` keys), with their defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PhotonSettings {
-    /// Photons emitted per pass (`photons`).
-    pub photons: u32,
+    /// Photons emitted per pass (`photons`); `None`: [`auto_photons`] of
+    /// the frame.
+    pub photons: Option<u32>,
     /// Neighbours that set a photon's radius (`k`).
     pub k: u32,
     /// Largest radius in the first pass, world units (`radius`); `None`:
@@ -90,13 +91,41 @@ pub struct PhotonSettings {
 impl Default for PhotonSettings {
     fn default() -> Self {
         Self {
-            photons: 100_000,
+            photons: None,
             k: 32,
             radius: None,
             alpha: 2.0 / 3.0,
             step: None,
             estimate: Estimate::Beam,
         }
+    }
+}
+
+/// Photons per pass for a `width` x `height` frame when the scene gives
+/// none: half a photon per pixel of the whole frame (also for a tile, so
+/// that a tile's pixels are those of the full render), at least 10,000.
+///
+/// A pass costs camera rays in proportion to the pixels and photon
+/// tracing in proportion to the photons; the error at equal time is
+/// lowest when both grow together. Measured at 30 s on two threads
+/// (relMSE against the ground truths of `cargo bench --bench
+/// equal_time`; docs/performance.md): at 256 x 192 the dense cloud gave
+/// 1.49e-3 with 25,000 photons a pass and 1.68e-3 with 50,000, the
+/// reference cloud 7.0e-5 with 25,000 and 6.7e-5 with 100,000; at 512 x
+/// 384 (box-filtered to 256 x 192 for the comparison) 100,000 beat 25,000
+/// on both, 1.92e-3 against 2.25e-3 and 7.6e-5 against 1.06e-4.
+pub fn auto_photons(width: u32, height: u32) -> u32 {
+    ((width as u64 * height as u64).div_ceil(2).max(10_000)).min(MAX_AUTO_PHOTONS as u64) as u32
+}
+
+/// The most photons a pass gets without asking (a 4K frame's half a
+/// photon per pixel).
+const MAX_AUTO_PHOTONS: u32 = 1 << 22;
+
+impl PhotonSettings {
+    /// Photons per pass for a `width` x `height` frame.
+    pub fn photons_for(&self, width: u32, height: u32) -> u32 {
+        self.photons.unwrap_or_else(|| auto_photons(width, height))
     }
 }
 
@@ -118,11 +147,15 @@ const MARCH_RR: f32 = 0.02;
 const STORED_PER_EMITTED: f32 = 1.0;
 
 /// Steps of a camera ray that get next-event estimation, stratified over
-/// the march's single-scattering weights. On the reference cloud (4 passes,
-/// two seeds) the single-scattering variance fell from 5.7e-5 with one to
-/// 4.6e-6 with eight and 2.3e-6 with sixteen, at a few per cent of a
-/// pass's time: eight leave the photon map's noise the larger part.
-const LIGHT_SAMPLES: u32 = 8;
+/// the march's single-scattering weights. More samples cut the
+/// single-scattering variance of a pass (on the reference cloud 5.7e-5
+/// with one, 4.6e-6 with eight), but a shadow ray through a dense cloud is
+/// not cheap, and the image's error at equal time is set by how many
+/// passes (photon maps, shrinking radii) fit: at 30 s on two threads, two
+/// samples gave relMSE 7.0e-5 on the reference cloud (25,000 photons a
+/// pass) and 1.68e-3 on the dense one (50,000) against 8.0e-5 and 1.97e-3
+/// with eight; one sample was no better than two.
+const LIGHT_SAMPLES: u32 = 2;
 
 /// A pass's photon map, for the estimate in use.
 enum Map {
@@ -170,6 +203,8 @@ pub struct PhotonTotals {
 /// Volumetric photon mapping with a ray marcher; see the module docs.
 pub struct PhotonIntegrator {
     settings: PhotonSettings,
+    /// Photons emitted per pass (the setting, or half a photon per pixel).
+    photons: u32,
     max_bounces: u32,
     seed: u64,
     emitters: Option<Emitters>,
@@ -206,6 +241,7 @@ impl PhotonIntegrator {
             .unwrap_or(if finest.is_finite() { finest } else { 1.0 });
         Ok(Self {
             settings,
+            photons: settings.photons_for(world.camera.width(), world.camera.height()),
             max_bounces,
             seed,
             emitters: Emitters::new(world),
@@ -229,8 +265,8 @@ impl PhotonIntegrator {
     /// `STORED_PER_EMITTED` stored photons per emitted one, given what a
     /// trace of `st.emitted` photons met.
     fn store_scale(&self, st: &photon::TraceStats) -> f32 {
-        let target = STORED_PER_EMITTED as f64 * self.settings.photons as f64;
-        let expected = st.eligible_weight * self.settings.photons as f64 / st.emitted.max(1) as f64;
+        let target = STORED_PER_EMITTED as f64 * self.photons as f64;
+        let expected = st.eligible_weight * self.photons as f64 / st.emitted.max(1) as f64;
         if expected <= 0.0 {
             1.0
         } else {
@@ -275,7 +311,7 @@ impl Integrator for PhotonIntegrator {
         let Some(emitters) = &self.emitters else {
             return;
         };
-        let n = self.settings.photons;
+        let n = self.photons;
         let importance = self.importance.as_ref();
         let scale = match self.store {
             Some(s) => s,
@@ -339,7 +375,10 @@ impl Integrator for PhotonIntegrator {
         let s = &self.settings;
         let t = &self.totals;
         let mut a = vec![
-            ("vdbphoton/photons_per_pass".into(), s.photons.to_string()),
+            (
+                "vdbphoton/photons_per_pass".into(),
+                self.photons.to_string(),
+            ),
             ("vdbphoton/photons_emitted".into(), t.emitted.to_string()),
             ("vdbphoton/photons_stored".into(), t.stored.to_string()),
             ("vdbphoton/k".into(), s.k.to_string()),

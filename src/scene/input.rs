@@ -379,7 +379,7 @@ impl RenderIn {
             photon: {
                 let p = d.photon;
                 PhotonSettings {
-                    photons: self.photons.unwrap_or(p.photons),
+                    photons: self.photons.or(p.photons),
                     k: self.k.unwrap_or(p.k),
                     radius: self.radius.map(|r| r as f32).or(p.radius),
                     alpha: self.alpha.map_or(p.alpha, |a| a as f32),

@@ -223,12 +223,11 @@ impl SceneDesc {
             return err(p("spp"), format!("must be >= 1, got {}", r.spp));
         }
         let ph = &r.photon;
-        if !(1..=MAX_PHOTONS).contains(&ph.photons) {
+        if let Some(n) = ph.photons.filter(|n| !(1..=MAX_PHOTONS).contains(n)) {
             return err(
                 p("photons"),
                 format!(
-                    "must be in [1, {MAX_PHOTONS}] (photons per pass; each takes about 100 bytes), got {}",
-                    ph.photons
+                    "must be in [1, {MAX_PHOTONS}] (photons per pass; each takes about 100 bytes), got {n}"
                 ),
             );
         }
