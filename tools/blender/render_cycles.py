@@ -353,6 +353,55 @@ def cycles_bounces(mb, vols):
     return mb - 1
 
 
+def unbiased_cycles(scene, spp, seed, threads):
+    """Cycles on the CPU with every setting that would bias a reference off
+    (/work/shared/REFERENCE.md): no clamping, adaptive sampling, light tree,
+    path guiding or denoising; light threshold 0; a 1-pixel box filter; the
+    unbiased (null-scattering) volume integrator; no motion blur; no film
+    transparency or dither; the Standard view; float32 RGBA EXR (ZIP).
+    Bounce limits and the image size are the caller's. Shared with
+    test_export/render_blend.py, which renders a .blend as it is."""
+    scene.render.engine = 'CYCLES'
+    cy = scene.cycles
+    cy.device = 'CPU'
+    cy.samples = spp
+    cy.seed = seed
+    cy.use_animated_seed = False
+    cy.use_adaptive_sampling = False
+    cy.use_denoising = False
+    cy.use_light_tree = False
+    cy.light_sampling_threshold = 0.0
+    cy.sample_clamp_direct = 0.0
+    cy.sample_clamp_indirect = 0.0
+    cy.use_guiding = False
+    cy.volume_biased = False
+    cy.pixel_filter_type = 'BOX'
+    cy.filter_width = 1.0
+    cy.transparent_max_bounces = 1024
+    cy.min_light_bounces = 0
+    cy.min_transparent_bounces = 0
+    cy.caustics_reflective = True
+    cy.caustics_refractive = True
+    cy.blur_glossy = 0.0
+    cy.time_limit = 0.0
+    r = scene.render
+    r.use_motion_blur = False
+    r.threads_mode = 'FIXED'
+    r.threads = threads
+    r.film_transparent = False
+    r.dither_intensity = 0.0
+    vs = scene.view_settings
+    vs.view_transform = 'Standard'
+    vs.look = 'None'
+    vs.exposure = 0.0
+    vs.gamma = 1.0
+    im = r.image_settings
+    im.file_format = 'OPEN_EXR'
+    im.color_depth = '32'
+    im.color_mode = 'RGBA'
+    im.exr_codec = 'ZIP'
+
+
 def setup_render(scene, r, args, vols=()):
     check_keys(r, RENDER_KEYS, '[render]')
     if r.get('integrator', 'path') != 'path':
@@ -373,52 +422,20 @@ def setup_render(scene, r, args, vols=()):
              f"(max_bounces 1025), got {mb}")
     bounces = cycles_bounces(mb, vols)
 
-    scene.render.engine = 'CYCLES'
+    unbiased_cycles(scene, spp, seed, args.threads)
     cy = scene.cycles
-    cy.device = 'CPU'
-    cy.samples = spp
-    cy.seed = seed
-    cy.use_animated_seed = False
-    cy.use_adaptive_sampling = False
-    cy.use_denoising = False
-    cy.use_light_tree = False
-    cy.light_sampling_threshold = 0.0
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
-    cy.use_guiding = False
-    cy.volume_biased = False
-    cy.pixel_filter_type = 'BOX'
-    cy.filter_width = 1.0
     cy.max_bounces = bounces
     cy.volume_bounces = bounces
     cy.diffuse_bounces = bounces
     cy.glossy_bounces = bounces
     cy.transmission_bounces = bounces
-    cy.transparent_max_bounces = 1024
-    cy.min_light_bounces = 0
-    cy.min_transparent_bounces = 0
-    cy.caustics_reflective = True
-    cy.caustics_refractive = True
-    cy.blur_glossy = 0.0
-    cy.time_limit = 0.0
-    scene.render.use_motion_blur = False
-    scene.render.threads_mode = 'FIXED'
-    scene.render.threads = args.threads
     scene.render.resolution_x = width
     scene.render.resolution_y = height
     scene.render.resolution_percentage = 100
     scene.render.pixel_aspect_x = 1.0
     scene.render.pixel_aspect_y = 1.0
-    scene.render.film_transparent = False
-    scene.render.dither_intensity = 0.0
-    scene.view_settings.view_transform = 'Standard'
-    scene.view_settings.look = 'None'
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
-    scene.render.image_settings.file_format = 'OPEN_EXR'
-    scene.render.image_settings.color_depth = '16' if args.half else '32'
-    scene.render.image_settings.color_mode = 'RGBA'
-    scene.render.image_settings.exr_codec = 'ZIP'
+    if args.half:
+        scene.render.image_settings.color_depth = '16'
     return dict(width=width, height=height, spp=spp, seed=seed, max_bounces=mb,
                 cycles_bounces=bounces)
 

@@ -39,6 +39,8 @@ from mathutils import Matrix
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))
+import render_cycles  # noqa: E402  (tools/blender/render_cycles.py)
 
 
 def f32(x):
@@ -46,43 +48,11 @@ def f32(x):
 
 
 def unbiased(sc, spp, seed, threads, out):
-    sc.render.engine = 'CYCLES'
-    cy = sc.cycles
-    cy.device = 'CPU'
-    cy.samples = spp
-    cy.seed = seed
-    cy.use_animated_seed = False
-    cy.use_adaptive_sampling = False
-    cy.use_denoising = False
-    cy.use_light_tree = False
-    cy.light_sampling_threshold = 0.0
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
-    cy.use_guiding = False
-    cy.volume_biased = False
-    cy.pixel_filter_type = 'BOX'
-    cy.filter_width = 1.0
-    cy.transparent_max_bounces = 1024
-    cy.min_light_bounces = 0
-    cy.min_transparent_bounces = 0
-    cy.time_limit = 0.0
+    # render_cycles.py's unbiased settings; the scene keeps its own bounce
+    # limits and image size.
+    render_cycles.unbiased_cycles(sc, spp, seed, threads)
     r = sc.render
-    r.use_motion_blur = False
-    r.threads_mode = 'FIXED'
-    r.threads = threads
-    r.film_transparent = False
-    r.dither_intensity = 0.0
     r.use_border = False
-    vs = sc.view_settings
-    vs.view_transform = 'Standard'
-    vs.look = 'None'
-    vs.exposure = 0.0
-    vs.gamma = 1.0
-    im = r.image_settings
-    im.file_format = 'OPEN_EXR'
-    im.color_depth = '32'
-    im.color_mode = 'RGBA'
-    im.exr_codec = 'ZIP'
     r.filepath = out
     for v in bpy.data.volumes:
         v.render.precision = 'FULL'
