@@ -759,6 +759,35 @@ fn blender_export_warns_and_refuses() {
     let dir = tmp.path();
     build_scenes(&py, dir);
 
+    // The add-on: registered, in File > Export, and its operator writes
+    // the scene the command line writes.
+    let addon = dir.join("addon.toml");
+    let out = ok(
+        run(
+            Command::new(&py)
+                .arg(repo().join("tools/blender/test_export/addon_export.py"))
+                .arg(dir.join("main.blend"))
+                .arg(&addon),
+            "addon_export.py",
+        ),
+        "addon_export.py",
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("ADDON_OK"));
+    let cli = dir.join("cli.toml");
+    ok(
+        export(&py, &dir.join("main.blend"), &cli, &[]),
+        "vdbphoton_export.py main.blend",
+    );
+    let (a, b): (toml::Value, toml::Value) = (
+        toml::from_str(&std::fs::read_to_string(&addon).unwrap()).unwrap(),
+        toml::from_str(&std::fs::read_to_string(&cli).unwrap()).unwrap(),
+    );
+    assert_eq!(
+        a, b,
+        "the add-on and the command line export main.blend differently"
+    );
+    vdbphoton::scene::SceneDesc::load(&addon).unwrap();
+
     // Unsupported things: warned about, naming object, material and node.
     let toml_path = dir.join("bad.toml");
     let out = ok(
