@@ -162,6 +162,19 @@ pub fn merge(
         .collect::<Result<_>>()?;
     let first = &files[0];
     let (dw, dh) = first.image.display_size();
+    // The frame is allocated whole below: a header may claim any size.
+    if dw
+        .checked_mul(dh)
+        .is_none_or(|n| n as u64 > crate::scene::MAX_PIXELS)
+    {
+        return Err(Error::file(
+            &first.path,
+            format!(
+                "claims a {dw} x {dh} frame, more than the {} pixels a render may have",
+                crate::scene::MAX_PIXELS
+            ),
+        ));
+    }
     let layers = first.layers();
     for f in &files[1..] {
         if f.image.display_size() != (dw, dh) {

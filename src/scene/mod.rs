@@ -33,6 +33,7 @@ pub use desc::{
     AUTO_VIEW_DIRECTION,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
+pub use validate::MAX_PIXELS;
 
 use input::SceneIn;
 use source_map::SourceMap;
