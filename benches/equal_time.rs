@@ -1,6 +1,9 @@
 //! Equal-time comparison of the photon integrator and the path tracer:
 //! prints figures, asserts nothing. `cargo bench --bench equal_time`
-//! (`BENCH_BUDGETS=10,30,120` seconds by default; `BENCH_SCENES=sun,dense`).
+//! (`BENCH_BUDGETS=10,30,120` seconds by default; `BENCH_SCENES=sun,dense`;
+//! `BENCH_SEED`, 7 by default; `BENCH_INTEGRATORS=path,photon`;
+//! `BENCH_PHOTONS`, `BENCH_K`, `BENCH_ALPHA`, `BENCH_ESTIMATE` override
+//! the scene's photon settings).
 //!
 //! Both integrators render each scene for each wall-clock budget on all
 //! threads (passes until the budget, as `vdbphoton render --time`), and
@@ -10,11 +13,12 @@
 //! - `sun`: `reference/cloud96_sun.toml` (from `VDBPHOTON_REAL_DATA`,
 //!   default `../shared/data`) against Mitsuba's 2048-spp ground truth.
 //! - `dense`: `reference/cloud96_dense.toml` against the mean of two
-//!   path-traced halves, `cloud96_dense_a.exr` and `_b.exr` in
-//!   `BENCH_TRUTH` (default `target/ground_truth`); when they are missing
-//!   the bench prints the commands that make them. The halves' relative MSE
-//!   against each other is printed (the ground truth's own noise is about
-//!   a quarter of it).
+//!   path-traced halves of 2048 spp, `cloud96_dense_a.exr` and `_b.exr`
+//!   in `BENCH_TRUTH` (default `target/ground_truth`); when they are
+//!   missing the bench prints the commands that make them (about 20
+//!   minutes each on two cores). The halves' relative MSE against each
+//!   other is printed (the ground truth's own noise is about a quarter of
+//!   it).
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -73,7 +77,7 @@ fn main() {
                     }
                     _ => {
                         println!(
-                            "(no dense ground truth in {}: make it with\n  vdbphoton render {}/reference/cloud96_dense.toml --integrator path --spp 1024 --seed 1001 -o {}/cloud96_dense_a.exr --no-preview\n  and the same with --seed 2002 -o .../cloud96_dense_b.exr)",
+                            "(no dense ground truth in {}: make it with\n  vdbphoton render {}/reference/cloud96_dense.toml --integrator path --spp 2048 --seed 1001 -o {}/cloud96_dense_a.exr --no-preview\n  and the same with --seed 2002 -o .../cloud96_dense_b.exr)",
                             truth_dir.display(),
                             data.display(),
                             truth_dir.display()
@@ -102,7 +106,10 @@ fn main() {
             .ok()
             .and_then(|v| v.parse().ok())
         {
-            desc.render.photon.alpha = a;
+            desc.render.photon.alpha = Some(a);
+        }
+        if let Some(k) = std::env::var("BENCH_K").ok().and_then(|v| v.parse().ok()) {
+            desc.render.photon.k = Some(k);
         }
         if let Ok(e) = std::env::var("BENCH_ESTIMATE") {
             desc.render.photon.estimate = match e.as_str() {
@@ -119,18 +126,23 @@ fn main() {
             })
             .collect();
         println!(
-            "\n== {} (photons {} a pass, {:?} estimate, alpha {})",
+            "\n== {} (photons {} a pass, {:?} estimate, alpha {:?}, k {:?})",
             file.display(),
             desc.render
                 .photon
                 .photons_for(desc.render.width, desc.render.height),
             desc.render.photon.estimate,
-            desc.render.photon.alpha
+            desc.render.photon.alpha,
+            desc.render.photon.k
         );
+        let seed: u64 = std::env::var("BENCH_SEED")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(7);
         for &budget in &budgets {
             for &choice in &choices {
                 desc.render.integrator = choice;
-                desc.render.seed = 7;
+                desc.render.seed = seed;
                 let world = World::load(&desc).unwrap();
                 let mut integ = make_integrator(&desc, &world).unwrap();
                 let (w, h) = (desc.render.width, desc.render.height);
@@ -140,7 +152,7 @@ fn main() {
                     &world,
                     integ.as_mut(),
                     &mut film,
-                    7,
+                    seed,
                     Stop::Time(Duration::from_secs_f64(budget)),
                     &Silent,
                     |_, _, _| Ok(()),

@@ -726,3 +726,51 @@ fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
     assert_eq!(choose_integrator(&thick).0, Choice::Photon);
     assert_eq!(choose_integrator(&thin).0, Choice::Path);
 }
+
+/// The pilot measures the media's scattering order, and the automatic
+/// settings follow it: a photon in a medium of albedo 0 scatters exactly
+/// once (its collision is its end), a dense bright cloud gets the dense
+/// tuning, a thin one the thin tuning, and a key the scene gives is kept.
+#[test]
+fn tuning_follows_the_scattering_order() {
+    use vdbphoton::integrator::photon::{Tuning, DENSE_ORDER};
+    use vdbphoton::photon::{self, emitter::Emitters, Store};
+    let sun = || vec![Light::sun(Vec3::new(0.3, -0.4, 1.0), Rgb::ONE, 0.0)];
+    let order = |w: &World| {
+        let e = Emitters::new(w).unwrap();
+        let (_, st) = photon::trace(w, &e, 4000, 5, 0, 1024, Store::ALL);
+        st.order()
+    };
+    let black = world(vec![cloud(raw(3.0, 0.0, 0.0))], sun(), Rgb::ZERO);
+    assert_eq!(order(&black), 1.0);
+    let dense = world(vec![cloud(raw(0.01, 60.0, 0.8))], sun(), Rgb::ZERO);
+    let thin = world(vec![cloud(raw(0.05, 0.3, 0.3))], sun(), Rgb::ZERO);
+    let (od, ot) = (order(&dense), order(&thin));
+    assert!(od >= 2.0 * DENSE_ORDER, "dense cloud: order {od}");
+    assert!(ot < 0.5 * DENSE_ORDER, "thin cloud: order {ot}");
+    let attribute = |w: &World, s: PhotonSettings| {
+        let mut integ = PhotonIntegrator::new(w, s, 1024, 3).unwrap();
+        integ.begin_pass(w, 0);
+        let a = integ.attributes();
+        let get = |k: &str| a.iter().find(|(n, _)| n == k).unwrap().1.clone();
+        (get("vdbphoton/k"), get("vdbphoton/alpha"))
+    };
+    let d = Tuning::DENSE;
+    let t = Tuning::THIN;
+    assert_eq!(
+        attribute(&dense, settings(4000)),
+        (d.k.to_string(), d.alpha.to_string())
+    );
+    assert_eq!(
+        attribute(&thin, settings(4000)),
+        (t.k.to_string(), t.alpha.to_string())
+    );
+    let given = PhotonSettings {
+        k: Some(40),
+        ..settings(4000)
+    };
+    assert_eq!(
+        attribute(&dense, given),
+        ("40".to_string(), d.alpha.to_string())
+    );
+}

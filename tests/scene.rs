@@ -109,9 +109,9 @@ fn defaults_when_keys_are_absent() {
             integrator: Integrator::Auto,
             photon: PhotonSettings {
                 photons: None,
-                k: 32,
+                k: None,
                 radius: None,
-                alpha: 2.0 / 3.0,
+                alpha: None,
                 step: None,
                 estimate: Estimate::Beam,
             },
@@ -497,9 +497,9 @@ fn photon_keys() {
         s.render.photon,
         PhotonSettings {
             photons: Some(5000),
-            k: 12,
+            k: Some(12),
             radius: Some(0.25),
-            alpha: 0.5,
+            alpha: Some(0.5),
             step: Some(0.01),
             estimate: Estimate::Point,
         }

@@ -10,10 +10,11 @@
 //! - each step i of length Δ with σt at its point contributes its source S
 //!   (per unit length) as T_i·S·(1 − e^{−σtΔ})/σt, T_i the transmittance to
 //!   the step: emission, single scattering, multiple scattering;
-//! - single scattering σs·∫p·L_light is computed at one step chosen in
-//!   proportion to T·σs·(1 − e^{−σtΔ})/σt, by next-event estimation to every
-//!   light with ratio-tracked transmittance: unbiased for the march's sum at
-//!   the cost of one shadow ray per light instead of one per step;
+//! - single scattering σs·∫p·L_light is computed at one or two steps
+//!   chosen (stratified) in proportion to T·σs·(1 − e^{−σtΔ})/σt, by
+//!   next-event estimation to every light with ratio-tracked transmittance:
+//!   unbiased for the march's sum at the cost of a shadow ray per light and
+//!   sample instead of one per step;
 //! - multiple scattering comes from the photons, which carry only light that
 //!   has scattered at least once: with the beam estimate one BVH traversal
 //!   along the marched part of the ray, with the point estimate a k-nearest
@@ -23,7 +24,9 @@
 //! Progressive: pass i (from 1) shrinks the photons' radii by
 //! i^((α−1)/2) (beams, a 2-D kernel) or the search radius by i^((α−1)/3)
 //! (points), so the image, the mean over passes, converges to the
-//! path-traced answer; memory is that of one pass.
+//! path-traced answer; memory is that of one pass. `k`, α and the light
+//! samples suit dense and thin media differently and, unless the scene
+//! gives them, come from the pilot's scattering order ([`Tuning`]).
 //!
 //! Photons per pass are kept to about `photons` stored ones: in dense media
 //! a photon scatters hundreds of times, and the probability of storing a
@@ -73,14 +76,16 @@ pub struct PhotonSettings {
     /// Photons emitted per pass (`photons`); `None`: [`auto_photons`] of
     /// the frame.
     pub photons: Option<u32>,
-    /// Neighbours that set a photon's radius (`k`).
-    pub k: u32,
+    /// Neighbours that set a photon's radius (`k`); `None`: chosen from the
+    /// pilot ([`Tuning::automatic`]).
+    pub k: Option<u32>,
     /// Largest radius in the first pass, world units (`radius`); `None`:
     /// automatic from the photon density.
     pub radius: Option<f32>,
     /// Knaus & Zwicker's α in (0, 1] (`alpha`): radii shrink as
-    /// i^((α − 1)/3) for points and i^((α − 1)/2) for beams over passes i.
-    pub alpha: f32,
+    /// i^((α − 1)/3) for points and i^((α − 1)/2) for beams over passes i;
+    /// `None`: chosen from the pilot ([`Tuning::automatic`]).
+    pub alpha: Option<f32>,
     /// Length of a step of the camera-ray march, world units (`step`);
     /// `None`: the finest voxel of the volumes.
     pub step: Option<f32>,
@@ -92,9 +97,9 @@ impl Default for PhotonSettings {
     fn default() -> Self {
         Self {
             photons: None,
-            k: 32,
+            k: None,
             radius: None,
-            alpha: 2.0 / 3.0,
+            alpha: None,
             step: None,
             estimate: Estimate::Beam,
         }
@@ -129,6 +134,78 @@ impl PhotonSettings {
     }
 }
 
+/// Settings a render uses that suit dense and thin media differently:
+/// `k` and `alpha` as the scene gives them or, when absent, as
+/// [`Tuning::automatic`] chooses; the light samples a camera ray takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tuning {
+    pub k: u32,
+    pub alpha: f32,
+    /// Steps of a camera ray that get next-event estimation, stratified
+    /// over the march's single-scattering weights.
+    pub light_samples: u32,
+}
+
+impl Tuning {
+    /// Optically thin or dark media: the photon map's error is mostly its
+    /// bias, so radii start small and shrink fast. Two light samples: more
+    /// cut a pass's single-scattering variance (on the reference cloud
+    /// 5.7e-5 with one, 4.6e-6 with eight), but a shadow ray is not cheap
+    /// and more passes lower the error more (at 30 s two samples gave
+    /// relMSE 7.0e-5 there, eight 8.0e-5).
+    pub const THIN: Tuning = Tuning {
+        k: 32,
+        alpha: 2.0 / 3.0,
+        light_samples: 2,
+    };
+    /// Dense, bright media, where a photon scatters many times: the map's
+    /// error is mostly its noise (the phase function weighs the few photons
+    /// travelling towards the camera far above the rest), so fewer
+    /// neighbours set the first radii and they shrink slowly; and single
+    /// scattering is a small, quiet part of the image (on the dense
+    /// reference cloud its variance is a sixtieth of the photons'), so one
+    /// light sample.
+    pub const DENSE: Tuning = Tuning {
+        k: 16,
+        alpha: 0.9,
+        light_samples: 1,
+    };
+
+    /// The tuning for media where a photon that scatters scatters on
+    /// average `order` times (measured by the pilot): [`Self::DENSE`] from
+    /// [`DENSE_ORDER`] on, [`Self::THIN`] below.
+    ///
+    /// Measured on the equal-time bench's clouds (docs/performance.md): on
+    /// the dense one (albedo 0.999, g = 0.8; order 61) k = 16, α = 0.9 gave
+    /// a relMSE of 1.21e-3 after 200 passes against 1.56e-3 with k = 32,
+    /// α = 2/3, at about the same image mean after 65 passes (0.991), and
+    /// one light sample instead of two cut the 30 s error by 4.5 % more; on
+    /// the reference cloud (albedo 0.91; order 4.4) k = 16, α = 0.9 gave
+    /// 8.8e-5 after 2,223 passes against 4.6e-5, the error there being the
+    /// bias.
+    pub fn automatic(order: f64) -> Tuning {
+        if order >= DENSE_ORDER {
+            Self::DENSE
+        } else {
+            Self::THIN
+        }
+    }
+
+    /// The settings' `k` and `alpha`, each automatic when absent.
+    pub fn of(settings: &PhotonSettings, order: f64) -> Tuning {
+        let auto = Self::automatic(order);
+        Tuning {
+            k: settings.k.unwrap_or(auto.k),
+            alpha: settings.alpha.unwrap_or(auto.alpha),
+            ..auto
+        }
+    }
+}
+
+/// Mean scattering events per scattered photon from which media count as
+/// dense for [`Tuning::automatic`].
+pub const DENSE_ORDER: f64 = 10.0;
+
 /// Largest optical depth of the majorant over one march step.
 const MAX_STEP_TAU: f32 = 0.5;
 
@@ -145,17 +222,6 @@ const MARCH_RR: f32 = 0.02;
 
 /// Photons stored per photon emitted, on average, in a pass.
 const STORED_PER_EMITTED: f32 = 1.0;
-
-/// Steps of a camera ray that get next-event estimation, stratified over
-/// the march's single-scattering weights. More samples cut the
-/// single-scattering variance of a pass (on the reference cloud 5.7e-5
-/// with one, 4.6e-6 with eight), but a shadow ray through a dense cloud is
-/// not cheap, and the image's error at equal time is set by how many
-/// passes (photon maps, shrinking radii) fit: at 30 s on two threads, two
-/// samples gave relMSE 7.0e-5 on the reference cloud (25,000 photons a
-/// pass) and 1.68e-3 on the dense one (50,000) against 8.0e-5 and 1.97e-3
-/// with eight; one sample was no better than two.
-const LIGHT_SAMPLES: u32 = 2;
 
 /// A pass's photon map, for the estimate in use.
 enum Map {
@@ -220,6 +286,11 @@ pub struct PhotonIntegrator {
     map: Option<Map>,
     /// The point estimate's search radius in this pass.
     search_radius: f32,
+    /// The media's mean scattering order, from the pilot.
+    order: f64,
+    /// `k`, `alpha` and light samples in use (automatic ones chosen after
+    /// the pilot).
+    tuning: Tuning,
     totals: PhotonTotals,
 }
 
@@ -252,6 +323,8 @@ impl PhotonIntegrator {
             store: None,
             map: None,
             search_radius: 0.0,
+            order: 0.0,
+            tuning: Tuning::of(&settings, 0.0),
             totals: PhotonTotals::default(),
         })
     }
@@ -277,7 +350,7 @@ impl PhotonIntegrator {
     /// The radii of a pass's photons: the density radius, at most the first
     /// pass's largest radius, shrunk for pass `pass` (0-based).
     fn radii(&mut self, photons: &[Photon], world: &World, pass: u32) -> Vec<f32> {
-        let k = self.settings.k;
+        let k = self.tuning.k;
         // A first guess of the density radius from the photons' spread in
         // the volumes' bounds, then one refinement on cells of about the
         // radius itself.
@@ -292,7 +365,7 @@ impl PhotonIntegrator {
         let cell = (first / 1.5).max(1e-6);
         let r_max = *self.r_max.get_or_insert(4.0 * first);
         self.totals.r_max = r_max;
-        let shrink = ((pass + 1) as f32).powf((self.settings.alpha - 1.0) / 2.0);
+        let shrink = ((pass + 1) as f32).powf((self.tuning.alpha - 1.0) / 2.0);
         let mut r = density_radii(photons, k, cell, r_max);
         for x in &mut r {
             *x *= shrink;
@@ -332,6 +405,8 @@ impl Integrator for PhotonIntegrator {
                     self.max_bounces,
                     none,
                 );
+                self.order = st.order();
+                self.tuning = Tuning::of(&self.settings, self.order);
                 self.store_scale(&st)
             }
         };
@@ -357,7 +432,7 @@ impl Integrator for PhotonIntegrator {
                 }
                 let r_max = self.r_max.unwrap_or(1.0);
                 self.search_radius =
-                    r_max * ((pass + 1) as f32).powf((self.settings.alpha - 1.0) / 3.0);
+                    r_max * ((pass + 1) as f32).powf((self.tuning.alpha - 1.0) / 3.0);
                 PointMap::new(photons).map(Map::Point)
             }
         };
@@ -381,8 +456,12 @@ impl Integrator for PhotonIntegrator {
             ),
             ("vdbphoton/photons_emitted".into(), t.emitted.to_string()),
             ("vdbphoton/photons_stored".into(), t.stored.to_string()),
-            ("vdbphoton/k".into(), s.k.to_string()),
-            ("vdbphoton/alpha".into(), format!("{}", s.alpha)),
+            ("vdbphoton/k".into(), self.tuning.k.to_string()),
+            ("vdbphoton/alpha".into(), format!("{}", self.tuning.alpha)),
+            (
+                "vdbphoton/scattering_order".into(),
+                format!("{:.2}", self.order),
+            ),
             ("vdbphoton/step".into(), format!("{}", self.step)),
             ("vdbphoton/estimate".into(), s.estimate.name().into()),
             ("vdbphoton/radius".into(), format!("{}", t.r_max)),
@@ -458,11 +537,11 @@ impl PhotonIntegrator {
             f32::INFINITY
         };
         let wo = -d;
-        // Single scattering at LIGHT_SAMPLES steps chosen by
+        // Single scattering at `light_samples` steps chosen by
         // T·σs·(1 − e^{−σtΔ})/σt, stratified over its cumulative sum.
         let total: f32 = steps.iter().map(|s| luminance(s.w * s.sigma_s)).sum();
         if total > 0.0 && (!world.lights.is_empty() || !world.environment.is_black()) {
-            let m = LIGHT_SAMPLES;
+            let m = self.tuning.light_samples;
             let u0 = rng.next_f32();
             let mut acc = 0.0f32;
             let mut k = 0u32;
@@ -516,7 +595,7 @@ impl PhotonIntegrator {
                         s.p,
                         s.sigma_s.element_sum() / 3.0,
                         wo,
-                        self.settings.k,
+                        self.tuning.k,
                         self.search_radius,
                     );
                     res.indirect += s.w * light;

@@ -96,6 +96,17 @@ pub struct TraceStats {
     pub eligible_weight: f64,
     /// Photons stored.
     pub stored: u64,
+    /// Photons that scattered at least once, and the scattering events of
+    /// them all: their ratio is the media's mean scattering order.
+    pub scattered: u64,
+    pub collisions: u64,
+}
+
+impl TraceStats {
+    /// Mean scattering events of a photon that scattered (0 when none did).
+    pub fn order(&self) -> f64 {
+        self.collisions as f64 / self.scattered.max(1) as f64
+    }
 }
 
 /// How collisions are kept: with probability `scale` times the importance
@@ -134,28 +145,32 @@ pub fn trace(
     store: Store,
 ) -> (Vec<Photon>, TraceStats) {
     let chunks = n.div_ceil(CHUNK);
-    let parts: Vec<(Vec<Photon>, u64, f64)> = (0..chunks)
+    let parts: Vec<(Vec<Photon>, Flights)> = (0..chunks)
         .into_par_iter()
         .map(|c| {
             let mut out = Vec::new();
-            let (mut eligible, mut weight) = (0u64, 0.0f64);
+            let mut sum = Flights::default();
             if crate::interrupt::requested().is_some() {
-                return (out, 0, 0.0);
+                return (out, sum);
             }
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let mut rng = Rng::new(Domain::Photon, seed, pass as u64, i as u64);
-                let (e, w) = trace_one(world, emitters, n, max_bounces, store, &mut rng, &mut out);
-                eligible += e;
-                weight += w;
+                let f = trace_one(world, emitters, n, max_bounces, store, &mut rng, &mut out);
+                sum.eligible += f.eligible;
+                sum.weight += f.weight;
+                sum.scattered += (f.collisions > 0) as u64;
+                sum.collisions += f.collisions;
             }
-            (out, eligible, weight)
+            (out, sum)
         })
         .collect();
     let stored = parts.iter().map(|p| p.0.len() as u64).sum();
-    let eligible = parts.iter().map(|p| p.1).sum();
-    let eligible_weight = parts.iter().map(|p| p.2).sum();
+    let eligible = parts.iter().map(|p| p.1.eligible).sum();
+    let eligible_weight = parts.iter().map(|p| p.1.weight).sum();
+    let scattered = parts.iter().map(|p| p.1.scattered).sum();
+    let collisions = parts.iter().map(|p| p.1.collisions).sum();
     let mut photons = Vec::with_capacity(stored as usize);
-    for (p, _, _) in parts {
+    for (p, _) in parts {
         photons.extend(p);
     }
     (
@@ -165,12 +180,26 @@ pub fn trace(
             eligible,
             eligible_weight,
             stored,
+            scattered,
+            collisions,
         },
     )
 }
 
-/// One photon's flight; returns the number of eligible collisions and the
-/// sum of their importance.
+/// What some photons' flights met.
+#[derive(Debug, Clone, Copy, Default)]
+struct Flights {
+    /// Collisions at which a photon could have been stored.
+    eligible: u64,
+    /// The importance summed over them.
+    weight: f64,
+    /// Photons that scattered at least once.
+    scattered: u64,
+    /// Scattering events.
+    collisions: u64,
+}
+
+/// One photon's flight: what it met (`scattered` is not filled in).
 fn trace_one(
     world: &World,
     emitters: &Emitters,
@@ -179,22 +208,21 @@ fn trace_one(
     store: Store,
     rng: &mut Rng,
     out: &mut Vec<Photon>,
-) -> (u64, f64) {
+) -> Flights {
+    let mut flight = Flights::default();
     let Some(e) = emitters.sample(world, rng) else {
-        return (0, 0.0);
+        return flight;
     };
     let media = &world.media;
     let mut power = e.ray.power / n as f32;
     // Russian roulette keeps the power near what the photon started with.
     let threshold = power.max_element();
     if threshold.is_nan() || threshold <= 0.0 {
-        return (0, 0.0);
+        return flight;
     }
     let media_bit = if e.from_media { FROM_MEDIA } else { 0 };
     let (mut o, mut d) = (e.ray.o, e.ray.d);
     let mut collisions = 0u32;
-    let mut eligible = 0u64;
-    let mut weight = 0.0f64;
     loop {
         let mut next: Option<(Vec3, Vec3)> = None;
         sample_t_maj(media, o, d, f32::INFINITY, rng, |c, rng| {
@@ -209,10 +237,11 @@ fn trace_one(
             if collisions > max_bounces {
                 return false;
             }
+            flight.collisions += 1;
             if collisions >= 2 || e.from_media {
-                eligible += 1;
+                flight.eligible += 1;
                 let w = store.weight(c.p);
-                weight += w as f64;
+                flight.weight += w as f64;
                 let q = (store.scale * w).min(1.0);
                 if q > 0.0 && (q >= 1.0 || rng.next_f32() < q) {
                     let sigma_s = step.medium.unwrap_or_else(|| media.eval(c.p)).sigma_s;
@@ -238,7 +267,7 @@ fn trace_one(
                 o = p;
                 d = nd;
             }
-            _ => return (eligible, weight),
+            _ => return flight,
         }
     }
 }

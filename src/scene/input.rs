@@ -380,9 +380,9 @@ impl RenderIn {
                 let p = d.photon;
                 PhotonSettings {
                     photons: self.photons.or(p.photons),
-                    k: self.k.unwrap_or(p.k),
+                    k: self.k.or(p.k),
                     radius: self.radius.map(|r| r as f32).or(p.radius),
-                    alpha: self.alpha.map_or(p.alpha, |a| a as f32),
+                    alpha: self.alpha.map(|a| a as f32).or(p.alpha),
                     step: self.step.map(|s| s as f32).or(p.step),
                     estimate: match self.estimate {
                         None => p.estimate,

@@ -231,13 +231,15 @@ impl SceneDesc {
                 ),
             );
         }
-        if !(1..=1024).contains(&ph.k) {
-            return err(p("k"), format!("must be in [1, 1024], got {}", ph.k));
+        if let Some(k) = ph.k.filter(|k| !(1..=1024).contains(k)) {
+            return err(p("k"), format!("must be in [1, 1024], got {k}"));
         }
         if let Some(radius) = ph.radius {
             in_range(&p("radius"), radius, (0.0, false), (f32::MAX, true))?;
         }
-        in_range(&p("alpha"), ph.alpha, (0.0, false), (1.0, true))?;
+        if let Some(alpha) = ph.alpha {
+            in_range(&p("alpha"), alpha, (0.0, false), (1.0, true))?;
+        }
         if let Some(step) = ph.step {
             in_range(&p("step"), step, (0.0, false), (f32::MAX, true))?;
         }

@@ -11,6 +11,7 @@
 //! - `vdbfuzz target vdb|scene FILE`: the child side (also for replaying).
 //! - `vdbfuzz seeds DIR`: writes the generated seed grids.
 
+pub mod oracle;
 mod rng;
 mod runner;
 mod scene_mut;
@@ -26,7 +27,6 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use vdb_mut::Seed;
-use vdbphoton::vdb::{AnyGrid, VdbFile};
 
 #[derive(Parser)]
 #[command(
@@ -117,69 +117,9 @@ fn main() -> ExitCode {
 
 // ---------------------------------------------------------------- targets
 
-/// Numbers in a metadata value as OpenVDB prints it (`[1, 2, 3]`, `42`).
-fn numbers(s: &str) -> Vec<i64> {
-    s.split(|c: char| !(c.is_ascii_digit() || c == '-'))
-        .filter_map(|t| t.parse().ok())
-        .collect()
-}
-
-/// Reads every supported grid as `vdbphoton info` does, then checks what
-/// it got against the grid's metadata: the loaded grid's active voxel
-/// count and bounds must be what the header claims (a reader that accepts
-/// more is wrong). Prints one JSON line.
-fn target_vdb(path: &Path) -> vdbphoton::Result<String> {
-    let f = VdbFile::open(path)?;
-    let info = f.info()?;
-    let mut nonfinite = Vec::new();
-    let mut mismatch = Vec::new();
-    let mut loaded = 0;
-    for (d, gi) in f.header().grids.iter().zip(&info.grids) {
-        if d.channels().is_none() {
-            continue;
-        }
-        let g = f.read_any(&d.unique_name)?;
-        loaded += 1;
-        let (finite, count, bounds) = match &g {
-            AnyGrid::Float(g) => (g.all_finite(), g.active_voxel_count(), g.active_bounds()),
-            AnyGrid::Vec3(g) => (g.all_finite(), g.active_voxel_count(), g.active_bounds()),
-        };
-        if !finite {
-            nonfinite.push(d.name.clone());
-        }
-        let meta = |k: &str| {
-            gi.metadata
-                .iter()
-                .find(|m| m.name == k)
-                .map(|m| numbers(&m.value))
-        };
-        if d.instance_parent.is_empty() {
-            if let Some(n) = meta("file_voxel_count").and_then(|v| v.first().copied()) {
-                if n != count as i64 {
-                    mismatch.push(format!("{}: {count} active voxels, header {n}", d.name));
-                }
-            }
-            if let (Some(lo), Some(hi), Some((a, b))) =
-                (meta("file_bbox_min"), meta("file_bbox_max"), bounds)
-            {
-                if lo != a.to_array().map(i64::from) || hi != b.to_array().map(i64::from) {
-                    mismatch.push(format!(
-                        "{}: bounds {a}..{b}, header {lo:?}..{hi:?}",
-                        d.name
-                    ));
-                }
-            }
-        }
-    }
-    Ok(
-        serde_json::json!({"loaded": loaded, "nonfinite": nonfinite, "mismatch": mismatch})
-            .to_string(),
-    )
-}
-
 fn target(kind: &str, file: &Path) -> ExitCode {
     let r = match kind {
-        "vdb" => target_vdb(file),
+        "vdb" => oracle::target_vdb(file),
         "scene" => vdbphoton::scene::SceneDesc::load(file)
             .map(|s| serde_json::json!({"volumes": s.volumes.len()}).to_string())
             .map_err(vdbphoton::Error::from),

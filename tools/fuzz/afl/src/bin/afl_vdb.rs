@@ -1,0 +1,29 @@
+//! AFL++ target: the `.vdb` reader (header check, grid walk, OpenVDB, grid
+//! build), in process, on the bytes AFL gives. A crash, an abort, a panic
+//! or a grid accepted unlike its header (the oracle of `vdbfuzz`) is a
+//! finding; a refusal is fine.
+
+#[path = "../../../oracle.rs"]
+#[allow(dead_code)]
+mod oracle;
+
+use std::io::Write;
+
+fn main() {
+    // OpenVDB opens files by name: the input goes to a file of this
+    // process's own, rewritten for each input.
+    let dir = std::env::var_os("AFL_TARGET_TMP")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(std::env::temp_dir);
+    let path = dir.join(format!("afl_vdb_{}.vdb", std::process::id()));
+    afl::fuzz!(|data: &[u8]| {
+        let mut f = std::fs::File::create(&path).expect("scratch file");
+        f.write_all(data).expect("scratch file");
+        drop(f);
+        if let Ok(r) = oracle::read_vdb(&path) {
+            if !r.mismatch.is_empty() {
+                panic!("accepted a grid unlike its header: {:?}", r.mismatch);
+            }
+        }
+    });
+}
