@@ -44,8 +44,12 @@ import sys
 import time
 
 import bpy
-import bmesh
 from mathutils import Vector
+
+# The scene helpers of the exporter's test scenes, beside this file.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from build_scene import (cube_mesh, fire_flow, link, new_scene,  # noqa: E402
+                         quick_smoke_fire, world_colour)
 
 
 def args():
@@ -55,16 +59,9 @@ def args():
     return os.path.abspath(out), os.path.abspath(cache), '--bake' in a
 
 
-def link(sc, name, data):
-    o = bpy.data.objects.new(name, data)
-    sc.collection.objects.link(o)
-    return o
-
-
 def main():
     out, cache, bake = args()
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    sc = bpy.context.scene
+    sc = new_scene()
 
     r = sc.render
     r.engine = 'CYCLES'
@@ -96,41 +93,19 @@ def main():
     # The sun shines along its local -Z: +Z points towards it.
     so.rotation_quaternion = Vector((0.6, -0.4, 0.7)).normalized().to_track_quat('Z', 'Y')
 
-    w = bpy.data.worlds.new('Dim sky')
-    w.use_nodes = True
-    bg = w.node_tree.nodes['Background']
-    bg.inputs['Color'].default_value = (0.03, 0.035, 0.045, 1.0)
-    bg.inputs['Strength'].default_value = 1.0
-    sc.world = w
+    world_colour(sc, (0.03, 0.035, 0.045))
 
-    # Fire + Smoke flow.
-    me = bpy.data.meshes.new('Emitter')
-    bm = bmesh.new()
-    bmesh.ops.create_uvsphere(bm, u_segments=24, v_segments=12, radius=0.22)
-    bm.to_mesh(me)
-    bm.free()
-    fo = link(sc, 'Emitter', me)
-    fo.location = (0.0, 0.0, -0.12)
-    fm = fo.modifiers.new('Fluid', 'FLUID')
-    fm.fluid_type = 'FLOW'
-    fs = fm.flow_settings
-    fs.flow_type = 'BOTH'
-    fs.flow_behavior = 'INFLOW'
+    # Fire + Smoke flow: fuel 1 and temperature 1 from the mesh (Blender's
+    # defaults, set so that the shot does not depend on them).
+    fo = fire_flow(sc, 'Emitter', (0.0, 0.0, -0.12), radius=0.22, segments=(24, 12))
+    fs = fo.modifiers['Fluid'].flow_settings
     fs.flow_source = 'MESH'
     fs.fuel_amount = 1.0
     fs.temperature = 1.0
-    for k in ('visible_camera', 'visible_diffuse', 'visible_glossy', 'visible_transmission',
-              'visible_volume_scatter', 'visible_shadow'):
-        setattr(fo, k, False)
     fo.display_type = 'WIRE'
 
     # Domain.
-    me = bpy.data.meshes.new('Smoke Domain')
-    bm = bmesh.new()
-    bmesh.ops.create_cube(bm, size=2.0)
-    bm.to_mesh(me)
-    bm.free()
-    do = link(sc, 'Smoke Domain', me)
+    do = link(sc, 'Smoke Domain', cube_mesh('Smoke Domain'))
     do.location = (0.0, 0.0, 1.0)
     do.scale = (1.25, 1.25, 2.25)
     do.display_type = 'WIRE'
@@ -156,18 +131,7 @@ def main():
     ds.vorticity = 0.0
     ds.time_scale = 1.0
 
-    mat = bpy.data.materials.new('Smoke Domain Material')
-    mat.use_nodes = True
-    nt = mat.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    pv = nt.nodes.new('ShaderNodeVolumePrincipled')
-    pv.name = 'Principled Volume'
-    pv.inputs['Density'].default_value = 5.0
-    pv.inputs['Blackbody Intensity'].default_value = 1.0
-    o = nt.nodes.new('ShaderNodeOutputMaterial')
-    nt.links.new(pv.outputs['Volume'], o.inputs['Volume'])
-    do.data.materials.append(mat)
+    do.data.materials.append(quick_smoke_fire())
 
     os.makedirs(cache, exist_ok=True)
     ds.cache_directory = cache  # last: changing settings afterwards deletes the cache

@@ -179,13 +179,14 @@ def quick_smoke_fire(name='Smoke Domain Material'):
     return principled(name, **{'Density': 5.0, 'Blackbody Intensity': 1.0})
 
 
-def fire_flow(sc, name, location, radius=0.2, visible=False):
+def fire_flow(sc, name, location, radius=0.2, visible=False, segments=(16, 8)):
     """A Fire + Smoke flow: Blender gives a domain fire (allocates and loads
     its flame grid) only when such a flow takes part. Invisible to every
-    ray type unless `visible`, so Cycles renders nothing of it."""
+    ray type unless `visible`, so Cycles renders nothing of it. A UV sphere
+    of `segments` (u, v)."""
     me = bpy.data.meshes.new(name)
     bm = bmesh.new()
-    bmesh.ops.create_uvsphere(bm, u_segments=16, v_segments=8, radius=radius)
+    bmesh.ops.create_uvsphere(bm, u_segments=segments[0], v_segments=segments[1], radius=radius)
     bm.to_mesh(me)
     bm.free()
     o = link(sc, name, me)
