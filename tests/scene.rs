@@ -686,6 +686,60 @@ fn error_transform_matrix_last_row() {
     );
 }
 
+/// A fixed-length array of any other length is refused, in TOML as in JSON
+/// (the TOML reader alone would take the first three numbers of
+/// `[0, -3, 1, 99, "x"]` and drop the rest).
+#[test]
+fn arrays_of_the_wrong_length_are_refused() {
+    let cases = [
+        (
+            "[camera]\nposition = [0, -3, 1, 99, \"x\"]\n",
+            "scene.toml:2: key 'position' in [camera]: invalid length 5, expected an array of length 3",
+        ),
+        (
+            "[camera]\nlook_at = [0, 0]\n",
+            "scene.toml:2: key 'look_at' in [camera]: invalid length 2, expected an array of length 3",
+        ),
+        (
+            "[[light]]\ntype = \"sun\"\nirradiance = 1\ndirection = [0, 0, 1, 1]\n",
+            "scene.toml:4: key 'direction' in [[light]]: invalid length 4, expected an array of length 3",
+        ),
+        (
+            "[volume.transform]\nmatrix = [[1, 0, 0, 0, 7], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n",
+            "scene.toml:4: key 'matrix[0]' in [volume.transform]: invalid length 5, expected an array of length 4",
+        ),
+        (
+            "[volume.transform]\nmatrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [0, 0, 0, 1]]\n",
+            "scene.toml:4: key 'matrix' in [volume.transform]: invalid length 5, expected an array of length 4",
+        ),
+        (
+            "temperature_from_flame = [1.5, 3.0, 4.5]\n",
+            "scene.toml:3: key 'temperature_from_flame' in [[volume]]: invalid length 3, expected an array of length 2",
+        ),
+    ];
+    for (body, want) in cases {
+        let text = if body.starts_with("[volume") || !body.starts_with('[') {
+            format!("{VOL}{body}")
+        } else {
+            format!("{body}{VOL}")
+        };
+        let got = toml_err(&text);
+        assert_eq!(got, want, "{text}");
+    }
+    let bounds = toml_err(&format!("{VOL}bounds = [[0, 0, 0, 0], [1, 1, 1]]\n"));
+    assert!(
+        bounds.starts_with("scene.toml:3: key 'bounds[0]' in [[volume]]: invalid length 4"),
+        "{bounds}"
+    );
+    let j = err(json(
+        "{\"camera\": {\"position\": [0, -3, 1, 99]}, \"volume\": [{\"file\": \"a.vdb\"}]}",
+    ));
+    assert_eq!(
+        j,
+        "scene.json:1: key 'position' in [camera]: invalid length 4, expected an array of length 3"
+    );
+}
+
 #[test]
 fn error_transform_matrix_and_trs() {
     assert!(toml_err(&format!(

@@ -63,6 +63,55 @@ impl<'de> Deserialize<'de> for Splat3 {
     }
 }
 
+/// `[T; N]` that refuses an array of any other length. serde's own impl
+/// for arrays stops after N elements and leaves the check for more to the
+/// format: serde_json makes it, the TOML deserializer does not, so
+/// `position = [0, -3, 1, 99, "x"]` would have passed as three numbers.
+pub(crate) struct Exact<T, const N: usize>(pub [T; N]);
+
+impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Exact<T, N> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<T, const N: usize>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for V<T, N> {
+            type Value = Exact<T, N>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                write!(f, "an array of length {N}")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Exact<T, N>, A::Error> {
+                let mut items = Vec::with_capacity(N);
+                while items.len() < N {
+                    match seq.next_element()? {
+                        Some(v) => items.push(v),
+                        None => return Err(de::Error::invalid_length(items.len(), &self)),
+                    }
+                }
+                let mut n = N;
+                while seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    n += 1;
+                }
+                if n != N {
+                    return Err(de::Error::invalid_length(n, &self));
+                }
+                let items: [T; N] = items
+                    .try_into()
+                    .map_err(|_| de::Error::invalid_length(n, &self))?;
+                Ok(Exact(items))
+            }
+        }
+        d.deserialize_seq(V(std::marker::PhantomData))
+    }
+}
+
+/// `Option<[f64; N]>` through [`Exact`] (for `deserialize_with`).
+fn exact<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<Option<[f64; N]>, D::Error> {
+    Ok(Option::<Exact<f64, N>>::deserialize(d)?.map(|e| e.0))
+}
+
+/// A 4 x 4 matrix whose rows are each exactly 4 numbers.
+fn exact_matrix<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[[f64; 4]; 4]>, D::Error> {
+    Ok(Option::<Exact<Exact<f64, 4>, 4>>::deserialize(d)?.map(|m| m.0.map(|r| r.0)))
+}
+
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table")]
 pub(crate) struct SceneIn {
@@ -110,8 +159,11 @@ enum EstimateIn {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table")]
 struct CameraIn {
+    #[serde(default, deserialize_with = "exact")]
     position: Option<[f64; 3]>,
+    #[serde(default, deserialize_with = "exact")]
     look_at: Option<[f64; 3]>,
+    #[serde(default, deserialize_with = "exact")]
     up: Option<[f64; 3]>,
     vfov: Option<f64>,
     focal_length: Option<f64>,
@@ -120,10 +172,14 @@ struct CameraIn {
     sensor_fit: Option<SensorFitIn>,
     shift_x: Option<f64>,
     shift_y: Option<f64>,
+    #[serde(default, deserialize_with = "exact_matrix")]
     matrix: Option<[[f64; 4]; 4]>,
+    #[serde(default, deserialize_with = "exact")]
     location: Option<[f64; 3]>,
+    #[serde(default, deserialize_with = "exact")]
     rotation: Option<[f64; 3]>,
     framing: Option<FramingIn>,
+    #[serde(default, deserialize_with = "exact")]
     direction: Option<[f64; 3]>,
 }
 
@@ -164,11 +220,11 @@ impl<'de> Deserialize<'de> for BoundsIn {
                 }))
             }
             fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<BoundsIn, A::Error> {
-                let lo: [f64; 3] = seq
-                    .next_element()?
+                let Exact(lo) = seq
+                    .next_element::<Exact<f64, 3>>()?
                     .ok_or_else(|| de::Error::invalid_length(0, &self))?;
-                let hi: [f64; 3] = seq
-                    .next_element()?
+                let Exact(hi) = seq
+                    .next_element::<Exact<f64, 3>>()?
                     .ok_or_else(|| de::Error::invalid_length(1, &self))?;
                 if seq.next_element::<de::IgnoredAny>()?.is_some() {
                     return Err(de::Error::invalid_length(3, &self));
@@ -196,9 +252,11 @@ enum LightKind {
 struct LightIn {
     #[serde(rename = "type")]
     kind: LightKind,
+    #[serde(default, deserialize_with = "exact")]
     direction: Option<[f64; 3]>,
     irradiance: Option<Splat3>,
     angle: Option<f64>,
+    #[serde(default, deserialize_with = "exact")]
     position: Option<[f64; 3]>,
     intensity: Option<Splat3>,
     cone_angle: Option<f64>,
@@ -228,6 +286,7 @@ struct VolumeIn {
     material: Option<MaterialIn>,
     bounds: Option<BoundsIn>,
     frame_offset: Option<i64>,
+    #[serde(default, deserialize_with = "exact")]
     temperature_from_flame: Option<[f64; 2]>,
 }
 
@@ -241,9 +300,12 @@ enum BlackbodyFilterIn {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table")]
 struct TransformIn {
+    #[serde(default, deserialize_with = "exact")]
     translate: Option<[f64; 3]>,
+    #[serde(default, deserialize_with = "exact")]
     rotate: Option<[f64; 3]>,
     scale: Option<Splat3>,
+    #[serde(default, deserialize_with = "exact_matrix")]
     matrix: Option<[[f64; 4]; 4]>,
 }
 

@@ -122,14 +122,21 @@ impl SceneDesc {
         base_dir: impl AsRef<Path>,
         name: &str,
     ) -> Result<SceneDesc, SceneError> {
-        let input = match format {
-            SceneFormat::Toml => parse_toml(text, name)?,
-            SceneFormat::Json => parse_json(text, name)?,
+        let (input, toml_map) = match format {
+            SceneFormat::Toml => {
+                let (input, map) = parse_toml(text, name)?;
+                (input, Some(map))
+            }
+            SceneFormat::Json => (parse_json(text, name)?, None),
         };
         let invalid = |error: ValidationError| {
-            let map = match format {
-                SceneFormat::Toml => SourceMap::toml(text),
-                SceneFormat::Json => SourceMap::json(text),
+            let json_map;
+            let map = match &toml_map {
+                Some(map) => map,
+                None => {
+                    json_map = SourceMap::json(text);
+                    &json_map
+                }
             };
             SceneError::Invalid {
                 file: name.to_owned(),
@@ -147,35 +154,44 @@ fn one_line(s: &str) -> String {
     s.trim().replace(['\n', '\r'], " ")
 }
 
-fn parse_toml(text: &str, name: &str) -> Result<SceneIn, SceneError> {
+/// The scene and where each of its keys sits (for later errors).
+fn parse_toml<'a>(text: &'a str, name: &str) -> Result<(SceneIn, SourceMap<'a>), SceneError> {
     let parse_error = |line, message: String| SceneError::Parse {
         file: name.to_owned(),
         line,
         message: one_line(&message),
     };
-    if let Err(e) = toml::de::DeTable::parse(text) {
-        let line = e.span().map(|s| source_map::line_of_offset(text, s.start));
-        let near = e
-            .span()
-            .and_then(|s| text.get(s))
-            .filter(|s| !s.trim().is_empty() && s.len() <= 40 && !s.contains('\n'));
-        let message = match near {
-            Some(near) => format!("invalid TOML: {} (at '{near}')", e.message()),
-            None => format!("invalid TOML: {}", e.message()),
-        };
-        return Err(parse_error(line, message));
-    }
-    toml::from_str(text).map_err(|e| {
-        let map = SourceMap::toml(text);
-        let (path, line) = match e.span() {
-            Some(span) => (
-                map.path_at(span.start),
-                Some(map.line_of_offset(span.start)),
-            ),
-            None => (Vec::new(), None),
-        };
-        parse_error(line, error::rewrite_serde_message(e.message(), &path))
-    })
+    // Parsed once: the syntax check's table is what serde reads (a second
+    // parse of a large scene costs more than the rest of a refusal).
+    let table = match toml::de::DeTable::parse(text) {
+        Ok(table) => table,
+        Err(e) => {
+            let line = e.span().map(|s| source_map::line_of_offset(text, s.start));
+            let near = e
+                .span()
+                .and_then(|s| text.get(s))
+                .filter(|s| !s.trim().is_empty() && s.len() <= 40 && !s.contains('\n'));
+            let message = match near {
+                Some(near) => format!("invalid TOML: {} (at '{near}')", e.message()),
+                None => format!("invalid TOML: {}", e.message()),
+            };
+            return Err(parse_error(line, message));
+        }
+    };
+    let map = SourceMap::toml(text, table.get_ref());
+    let input = serde::Deserialize::deserialize(toml::de::Deserializer::from(table)).map_err(
+        |e: toml::de::Error| {
+            let (path, line) = match e.span() {
+                Some(span) => (
+                    map.path_at(span.start),
+                    Some(map.line_of_offset(span.start)),
+                ),
+                None => (Vec::new(), None),
+            };
+            parse_error(line, error::rewrite_serde_message(e.message(), &path))
+        },
+    )?;
+    Ok((input, map))
 }
 
 fn parse_json(text: &str, name: &str) -> Result<SceneIn, SceneError> {

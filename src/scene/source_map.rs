@@ -1,7 +1,7 @@
 //! Where each key of a scene file sits in its text, so errors can name lines.
 //!
-//! Built only when an error has to be reported. For TOML the positions come
-//! from `toml::de::DeTable` spans; for JSON from a small lenient scanner (it
+//! For TOML the positions come from the spans of the `toml::de::DeTable`
+//! the scene was parsed into (built before serde consumes it); for JSON from a small lenient scanner (it
 //! runs on text serde_json has at least partly accepted and never panics).
 
 use std::ops::Range;
@@ -10,8 +10,14 @@ use toml::de::{DeTable, DeValue};
 
 use super::error::PathSeg;
 
+/// One key or array element. Entries form a tree (each names its parent
+/// and its own step) rather than each holding its whole path: a scene with
+/// a 100,000-element array would otherwise copy 100,000 paths to report
+/// one error.
 struct Entry {
-    path: Vec<PathSeg>,
+    parent: Option<usize>,
+    seg: PathSeg,
+    depth: usize,
     key: Option<Range<usize>>,
     value: Range<usize>,
 }
@@ -22,11 +28,11 @@ pub(crate) struct SourceMap<'a> {
 }
 
 impl<'a> SourceMap<'a> {
-    pub(crate) fn toml(text: &'a str) -> Self {
+    /// The map of a TOML document already parsed from `text` (parsing it
+    /// again would double the cost of refusing a large scene).
+    pub(crate) fn toml(text: &'a str, doc: &DeTable<'_>) -> Self {
         let mut entries = Vec::new();
-        if let Ok(doc) = DeTable::parse(text) {
-            walk_toml_table(doc.get_ref(), &mut Vec::new(), &mut entries);
-        }
+        walk_toml_table(doc, None, &mut entries);
         SourceMap { text, entries }
     }
 
@@ -37,7 +43,7 @@ impl<'a> SourceMap<'a> {
             depth: 0,
             entries: Vec::new(),
         };
-        let _ = scan.value(&mut Vec::new());
+        let _ = scan.value(None);
         SourceMap {
             text,
             entries: scan.entries,
@@ -53,7 +59,10 @@ impl<'a> SourceMap<'a> {
     /// file; `None` if no part of the path is in the file.
     pub(crate) fn line_of_path(&self, path: &[PathSeg]) -> Option<usize> {
         (1..=path.len()).rev().find_map(|n| {
-            let e = self.entries.iter().find(|e| e.path == path[..n])?;
+            let e =
+                self.entries.iter().enumerate().find_map(|(i, e)| {
+                    (e.depth == n && self.path_is(i, &path[..n])).then_some(e)
+                })?;
             let start = e.key.as_ref().map_or(e.value.start, |k| k.start);
             Some(self.line_of_offset(start))
         })
@@ -64,10 +73,33 @@ impl<'a> SourceMap<'a> {
         let contains = |r: &Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
         self.entries
             .iter()
-            .filter(|e| contains(&e.value) || e.key.as_ref().is_some_and(contains))
-            .max_by_key(|e| (e.path.len(), usize::MAX - e.value.len()))
-            .map(|e| e.path.clone())
+            .enumerate()
+            .filter(|(_, e)| contains(&e.value) || e.key.as_ref().is_some_and(contains))
+            .max_by_key(|(_, e)| (e.depth, usize::MAX - e.value.len()))
+            .map(|(i, _)| self.path_of(i))
             .unwrap_or_default()
+    }
+
+    /// The whole path of entry `i`.
+    fn path_of(&self, i: usize) -> Vec<PathSeg> {
+        let mut path = Vec::with_capacity(self.entries[i].depth);
+        let mut at = Some(i);
+        while let Some(j) = at {
+            path.push(self.entries[j].seg.clone());
+            at = self.entries[j].parent;
+        }
+        path.reverse();
+        path
+    }
+
+    /// Whether entry `i`'s path is `path` (its depth already matches).
+    fn path_is(&self, i: usize, path: &[PathSeg]) -> bool {
+        let mut at = Some(i);
+        path.iter().rev().all(|seg| {
+            let Some(j) = at else { return false };
+            at = self.entries[j].parent;
+            self.entries[j].seg == *seg
+        })
     }
 }
 
@@ -92,32 +124,36 @@ pub(crate) fn offset_of_line_col(text: &str, line: usize, column: usize) -> usiz
     (line_start + column.saturating_sub(1)).min(text.len())
 }
 
-fn walk_toml_table(table: &DeTable<'_>, path: &mut Vec<PathSeg>, out: &mut Vec<Entry>) {
+fn depth_of(out: &[Entry], parent: Option<usize>) -> usize {
+    parent.map_or(1, |p| out[p].depth + 1)
+}
+
+fn walk_toml_table(table: &DeTable<'_>, parent: Option<usize>, out: &mut Vec<Entry>) {
     for (k, v) in table.iter() {
-        path.push(PathSeg::Key(k.get_ref().to_string()));
         out.push(Entry {
-            path: path.clone(),
+            parent,
+            seg: PathSeg::Key(k.get_ref().to_string()),
+            depth: depth_of(out, parent),
             key: Some(k.span()),
             value: v.span(),
         });
-        walk_toml_value(v.get_ref(), path, out);
-        path.pop();
+        walk_toml_value(v.get_ref(), out.len() - 1, out);
     }
 }
 
-fn walk_toml_value(value: &DeValue<'_>, path: &mut Vec<PathSeg>, out: &mut Vec<Entry>) {
+fn walk_toml_value(value: &DeValue<'_>, me: usize, out: &mut Vec<Entry>) {
     match value {
-        DeValue::Table(t) => walk_toml_table(t, path, out),
+        DeValue::Table(t) => walk_toml_table(t, Some(me), out),
         DeValue::Array(items) => {
             for (i, item) in items.iter().enumerate() {
-                path.push(PathSeg::Index(i));
                 out.push(Entry {
-                    path: path.clone(),
+                    parent: Some(me),
+                    seg: PathSeg::Index(i),
+                    depth: out[me].depth + 1,
                     key: None,
                     value: item.span(),
                 });
-                walk_toml_value(item.get_ref(), path, out);
-                path.pop();
+                walk_toml_value(item.get_ref(), out.len() - 1, out);
             }
         }
         _ => {}
@@ -152,11 +188,11 @@ impl JsonScan<'_> {
     /// Parses one value; records an entry for every object member and array
     /// element. Returns `None` on malformed input (entries of unfinished
     /// containers then extend to the end of the text).
-    fn value(&mut self, path: &mut Vec<PathSeg>) -> Option<()> {
+    fn value(&mut self, me: Option<usize>) -> Option<()> {
         self.ws();
         match self.peek()? {
-            b'{' => self.container(path, b'}', true),
-            b'[' => self.container(path, b']', false),
+            b'{' => self.container(me, b'}', true),
+            b'[' => self.container(me, b']', false),
             b'"' => self.string().map(drop),
             _ => {
                 let start = self.i;
@@ -171,7 +207,7 @@ impl JsonScan<'_> {
         }
     }
 
-    fn container(&mut self, path: &mut Vec<PathSeg>, close: u8, object: bool) -> Option<()> {
+    fn container(&mut self, parent: Option<usize>, close: u8, object: bool) -> Option<()> {
         if self.depth >= Self::MAX_DEPTH {
             return None;
         }
@@ -186,28 +222,32 @@ impl JsonScan<'_> {
         let mut index = 0;
         loop {
             self.ws();
-            let key = if object {
+            let (seg, key) = if object {
                 let start = self.i;
                 let name = self.string()?;
                 let span = start..self.i;
                 self.eat(b':')?;
-                path.push(PathSeg::Key(name));
-                Some(span)
+                (PathSeg::Key(name), Some(span))
             } else {
-                path.push(PathSeg::Index(index));
                 index += 1;
-                None
+                (PathSeg::Index(index - 1), None)
             };
             self.ws();
             let start = self.i;
-            let ok = self.value(path);
-            let end = if ok.is_some() { self.i } else { self.s.len() };
+            // Pushed before its value is scanned, so that the value's own
+            // entries can name it; its end is set after.
+            let me = self.entries.len();
             self.entries.push(Entry {
-                path: path.clone(),
+                parent,
+                seg,
+                depth: depth_of(&self.entries, parent),
                 key,
-                value: start..end,
+                value: start..self.s.len(),
             });
-            path.pop();
+            let ok = self.value(Some(me));
+            if ok.is_some() {
+                self.entries[me].value.end = self.i;
+            }
             ok?;
             self.ws();
             match self.peek()? {

@@ -1,6 +1,11 @@
 //! One input in one child process, with an address-space limit, no core
 //! dumps and a wall-clock limit; its exit status, time and peak memory
 //! (`wait4`'s resource usage), so that a crash in C++ ends only the child.
+//!
+//! Two times are kept. `seconds` is the campaign's, from starting the
+//! launcher to reaping it: two process starts. `own_seconds` is the
+//! target's alone, measured by the launcher from spawning it to reaping
+//! it: what a user who runs the refused command waits for.
 
 use std::os::unix::process::CommandExt;
 use std::path::Path;
@@ -20,6 +25,11 @@ pub enum Status {
 pub struct Outcome {
     pub status: Status,
     pub seconds: f64,
+    /// The target process's own wall time (one process start, spawned by
+    /// the launcher); `None` if the launcher was killed first.
+    pub own_seconds: Option<f64>,
+    /// The target's user + system CPU time.
+    pub cpu_seconds: Option<f64>,
     /// Peak resident memory in bytes.
     pub max_rss: u64,
     pub stdout: String,
@@ -90,6 +100,7 @@ pub fn launcher(args: &[String]) -> std::process::ExitCode {
     };
     assert_eq!(dashes, "--");
     limit_self(aspace.parse().expect("address space"));
+    let t0 = Instant::now();
     let child = match Command::new(program).args(rest).spawn() {
         Ok(c) => c,
         Err(e) => {
@@ -98,12 +109,19 @@ pub fn launcher(args: &[String]) -> std::process::ExitCode {
         }
     };
     let (status, _, usage) = wait_for(child.id() as libc::pid_t, None);
+    let own = t0.elapsed().as_secs_f64();
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    let cpu = tv(usage.ru_utime) + tv(usage.ru_stime);
     let (code, signal) = if libc::WIFEXITED(status) {
         (libc::WEXITSTATUS(status), 0)
     } else {
         (-1, libc::WTERMSIG(status))
     };
-    std::fs::write(report, format!("{code} {signal} {}", usage.ru_maxrss)).expect("report");
+    std::fs::write(
+        report,
+        format!("{code} {signal} {} {own:.6} {cpu:.6}", usage.ru_maxrss),
+    )
+    .expect("report");
     std::process::ExitCode::SUCCESS
 }
 
@@ -142,13 +160,13 @@ pub fn run(
     let seconds = t0.elapsed().as_secs_f64();
     drop(child);
     let rep = std::fs::read_to_string(&report).unwrap_or_default();
-    let v: Vec<i64> = rep
+    let v: Vec<f64> = rep
         .split_whitespace()
         .filter_map(|t| t.parse().ok())
         .collect();
     let status = match (killed, v.as_slice()) {
         (true, _) | (_, []) => Status::Killed,
-        (_, [_, s, ..]) if *s != 0 => Status::Signal(*s as i32),
+        (_, [_, s, ..]) if *s != 0.0 => Status::Signal(*s as i32),
         (_, [c, ..]) => Status::Exit(*c as i32),
     };
     let read = |p: &Path| {
@@ -158,7 +176,9 @@ pub fn run(
     Outcome {
         status,
         seconds,
-        max_rss: v.get(2).copied().unwrap_or(0) as u64 * 1024,
+        own_seconds: v.get(3).copied().filter(|_| !killed),
+        cpu_seconds: v.get(4).copied().filter(|_| !killed),
+        max_rss: v.get(2).copied().unwrap_or(0.0) as u64 * 1024,
         stdout: read(&out_path),
         stderr: read(&err_path),
     }
