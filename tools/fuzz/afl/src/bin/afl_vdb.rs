@@ -26,4 +26,5 @@ fn main() {
             }
         }
     });
+    let _ = std::fs::remove_file(&path);
 }
