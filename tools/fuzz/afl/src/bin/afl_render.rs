@@ -19,7 +19,7 @@ mod oracle;
 
 use vdbphoton::frames::{render_job, FrameJob};
 use vdbphoton::render::{RenderOptions, Silent};
-use vdbphoton::scene::{SceneDesc, SceneFormat};
+use vdbphoton::scene::SceneDesc;
 
 /// Photons a pass at most: a scene may ask for millions, which is work it
 /// asked for, not a hang.
@@ -36,13 +36,8 @@ fn main() {
     let vdb = dir.join("input.vdb");
     let exr = dir.join("out.exr");
     afl::fuzz!(|data: &[u8]| {
-        let Some((&first, rest)) = data.split_first() else {
+        let Some((format, rest)) = vdbphoton_afl::format_and_rest(data) else {
             return;
-        };
-        let format = if first % 2 == 0 {
-            SceneFormat::Toml
-        } else {
-            SceneFormat::Json
         };
         let split = rest.iter().position(|&b| b == 0).unwrap_or(rest.len());
         let (scene, file) = (&rest[..split], rest.get(split + 1..).unwrap_or(&[]));

@@ -4,7 +4,7 @@
 //! so is an accepted scene, unless a number in it is not finite (what
 //! `vdbfuzz` calls a wrong accept).
 
-use vdbphoton::scene::{SceneDesc, SceneFormat};
+use vdbphoton::scene::SceneDesc;
 
 /// `Debug` text with its quoted strings removed, so that a file named
 /// `info.vdb` is not taken for an infinite number.
@@ -30,13 +30,8 @@ fn without_strings(s: &str) -> String {
 
 fn main() {
     afl::fuzz!(|data: &[u8]| {
-        let Some((&first, rest)) = data.split_first() else {
+        let Some((format, rest)) = vdbphoton_afl::format_and_rest(data) else {
             return;
-        };
-        let format = if first % 2 == 0 {
-            SceneFormat::Toml
-        } else {
-            SceneFormat::Json
         };
         // `SceneDesc::load` refuses text that is not UTF-8 before parsing.
         let Ok(text) = std::str::from_utf8(rest) else {
