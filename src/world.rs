@@ -169,6 +169,38 @@ pub fn idle_grids(v: &VolumeDesc) -> Vec<String> {
     out
 }
 
+/// World space is single precision: a transform that places the density's
+/// voxels beyond it (a translation of 1e115) would leave every ray missing
+/// the volume, and the image black without a word. Checked before the
+/// volume's acceleration grids are built.
+fn check_world_range(f: &VdbFile, v: &VolumeDesc, density: &Grid<f32>) -> Result<()> {
+    let Some((lo, hi)) = density.stored_bounds() else {
+        return Ok(());
+    };
+    let m = v.transform * density.world_from_index();
+    let limit = f64::from(f32::MAX) / 2.0;
+    let inside = (0..8).all(|k| {
+        let c = DVec3::new(
+            f64::from(if k & 1 == 0 { lo.x } else { hi.x + 1 }),
+            f64::from(if k & 2 == 0 { lo.y } else { hi.y + 1 }),
+            f64::from(if k & 4 == 0 { lo.z } else { hi.z + 1 }),
+        );
+        m.transform_point3(c).abs().cmplt(DVec3::splat(limit)).all()
+    });
+    if inside {
+        return Ok(());
+    }
+    let o = m.translation;
+    Err(Error::grid(
+        f.path(),
+        &v.density_grid,
+        format!(
+            "its transform places the volume beyond single-precision world space (index (0, 0, 0) at {:.3e}, {:.3e}, {:.3e}); check the grid's transform or the scene's",
+            o.x, o.y, o.z
+        ),
+    ))
+}
+
 fn load_volume(
     v: &VolumeDesc,
     warnings: &mut Vec<String>,
@@ -230,6 +262,7 @@ fn load_volume(
         blackbody_filter: v.blackbody_filter,
     };
     let material = Material::from_desc(&v.material);
+    check_world_range(&f, v, &density)?;
     let label = v.file.display().to_string();
     let vol = Volume::new(&label, density, extra, material, v.transform);
     if let Some(vol) = &vol {

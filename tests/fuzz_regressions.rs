@@ -143,3 +143,63 @@ fn absurd_absorption_is_refused_at_load() {
         assert!(common::dir_entries(dir.path()).is_empty());
     }
 }
+
+/// AFL++'s render target (stop 28): a temperature grid whose transform puts
+/// its voxels 10^5 density voxels away (`afl_temperature_far.*`, written by
+/// `make_afl_cases.py`). The majorant grid over the density and the
+/// emitting voxels wanted 2 x 19,200 x 19,200 cells of 8 voxels: the
+/// original input rendered 16 x 12 for 121 s in 3 GB, this one ran past
+/// 100 s, and a larger extent overflowed the cell count. The cells now
+/// grow to a budget; both integrators render it at once, finite.
+#[test]
+fn emission_far_from_the_density_renders_at_once() {
+    let scene = data("afl_temperature_far.toml");
+    for integrator in ["path", "photon"] {
+        let dir = common::tempdir();
+        let out = dir.path().join("o.exr");
+        let t0 = Instant::now();
+        let run = Command::new(BIN)
+            .args(["render".as_ref(), scene.as_os_str()])
+            .args(["--integrator", integrator, "--quiet", "--no-preview", "-o"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let took = t0.elapsed();
+        assert!(
+            run.status.success(),
+            "{integrator}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        // Generous: the point is minutes against a fraction of a second.
+        assert!(
+            took < Duration::from_secs(30),
+            "{integrator}: took {took:?}"
+        );
+        let img = vdbphoton::image::read_exr_rgb(&out).unwrap();
+        assert!(img.pixels.iter().all(|p| p.is_finite()), "{integrator}");
+    }
+}
+
+/// AFL++'s render target (stop 28): a density grid translated by -1.8e115
+/// (`afl_density_1e115.*`). World space is single precision, so the volume
+/// was nowhere: a black image without a word, and the emitting grid's box
+/// overflowed the majorant grid's cell count. Now refused at load, naming
+/// the grid, before any acceleration grid is built.
+#[test]
+fn a_volume_beyond_single_precision_is_refused() {
+    let scene = data("afl_density_1e115.toml");
+    let dir = common::tempdir();
+    let out = dir.path().join("o.exr");
+    let err = assert_refused(
+        &[
+            "render".as_ref(),
+            scene.as_os_str(),
+            "-o".as_ref(),
+            out.as_os_str(),
+        ],
+        "afl_density_1e115.vdb', grid 'density'",
+        Duration::from_secs(2),
+    );
+    assert!(err.contains("single-precision world space"), "{err}");
+    assert!(common::dir_entries(dir.path()).is_empty());
+}

@@ -304,6 +304,63 @@ fn majorant_grid_needs_fewer_lookups_than_a_global_bound() {
     );
 }
 
+/// Two bricks 20,000 voxels apart (a valid sparse file; AFL++ found the
+/// like of it) would need 2,500³ cells of 8 voxels. That count overflowed
+/// (a panic, or in release a wrapped size); now the cells grow to fit a
+/// budget, and still bound every lookup, in every cell and along rays
+/// through both bricks.
+#[test]
+fn far_apart_bricks_get_coarser_cells_that_still_bound() {
+    let mut p = GridParts::new("density", 0.0f32, DAffine3::IDENTITY);
+    let mut values = Vec::new();
+    for (k, o) in [IVec3::ZERO, IVec3::splat(20000)].into_iter().enumerate() {
+        p.brick_origins.push(o);
+        p.masks.push([u64::MAX; 8]);
+        values.extend((0..512).map(|i| (1 + (i * 7 + k) % 5) as f32));
+    }
+    p.values = values.into();
+    let g = Grid::from_parts(p).unwrap();
+    let m = MajorantGrid::build(&g, 8).unwrap();
+    let r = m.resolution().as_i64vec3();
+    assert!(r.x * r.y * r.z <= 1 << 22, "{} cells", r.x * r.y * r.z);
+    let (_, edge) = m.cell_box(IVec3::ZERO);
+    assert!(edge > 8.0, "cells of {edge} voxels");
+    m.validate(&g, 2).unwrap();
+    assert_eq!(m.max(), 5.0);
+    // Through the tracker: rays from each brick to the other.
+    let sigma = Rgb::splat(1.0);
+    let media = media_of(g, raw(sigma * 0.5, sigma * 0.5, PhaseFunction::Isotropic));
+    let mut rng = Rng::new(Domain::Test, 7, 7, 7);
+    let mut collisions = 0;
+    for i in 0..200 {
+        let jitter = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 8.0;
+        let (a, b) = (
+            jitter,
+            Vec3::splat(20000.0) + Vec3::new(jitter.z, jitter.x, jitter.y),
+        );
+        let (o, d) = if i % 2 == 0 { (a, b - a) } else { (b, a - b) };
+        sample_t_maj(&media, o, d.normalize(), d.length(), &mut rng, |c, _| {
+            let st = c.medium().sigma_t();
+            assert!(
+                st.max_element() <= c.sigma_maj * (1.0 + 1e-5),
+                "above the majorant at {}",
+                c.p
+            );
+            assert!(
+                st.min_element() >= c.sigma_c * (1.0 - 1e-5),
+                "below the minorant at {}",
+                c.p
+            );
+            collisions += 1;
+            true
+        });
+    }
+    assert!(
+        collisions > 200,
+        "only {collisions} collisions were checked"
+    );
+}
+
 #[test]
 fn dda_exact_entry_exit_and_signed_zero_directions() {
     // A grid of two voxels at x = 0 and 1 (values 1, 2) in one brick: the

@@ -25,6 +25,12 @@
 use crate::grid::Grid;
 use glam::{IVec3, Vec3};
 
+/// The cells a majorant grid may have: this many (12 bytes each with
+/// emission, 48 MiB; cells of 8 voxels over a 1,290³-voxel extent), or two
+/// per brick of the density if that is more (a dense 2048³ grid keeps its
+/// cells of 8). Beyond it the cells grow.
+const MIN_CELL_BUDGET: i64 = 1 << 22;
+
 /// Lower and upper bounds of the density per cell, over an index-space box.
 #[derive(Debug, Clone)]
 pub struct MajorantGrid {
@@ -58,7 +64,9 @@ pub struct EmissionBounds<'a> {
 impl MajorantGrid {
     /// Builds the grid over the stored region of `density`, padded by one
     /// voxel (trilinear lookups just outside it still see its values), with
-    /// cells of `cell` voxels. Returns `None` for an empty grid. Densities
+    /// cells of `cell` voxels, or of a power-of-two multiple of it where the
+    /// extent would need more than [`MIN_CELL_BUDGET`] cells (or two per
+    /// brick). Returns `None` for an empty grid. Densities
     /// below zero count as zero (they are clamped at lookup, as in Cycles).
     /// Cells that reach outside the stored voxels see the background, which
     /// the minorant includes.
@@ -83,15 +91,36 @@ impl MajorantGrid {
         };
         let lo = lo - 1;
         let hi = hi + 1;
-        let (origin, res) = if cell == 8 {
-            // Cells aligned with the bricks, so that each cell's range is the
-            // exact 9³ one of `block_lookup_range`. Lookups stay below `hi`.
-            let origin = (lo >> 3) << 3;
-            (origin, ((hi - 1 - origin) >> 3) + 1)
-        } else {
-            (lo, (hi - lo + cell) / cell) // ceil((hi - lo + 1) / cell)
+        // A sparse grid (two voxels 20,000 apart) or emitting grids far
+        // from the density would need billions of cells of 8 voxels:
+        // coarser cells bound the same lookups, with more null collisions
+        // where they are loose.
+        let budget = MIN_CELL_BUDGET.max(2 * density.brick_count() as i64);
+        let mut cell = cell.max(1);
+        let (origin, res) = loop {
+            let (origin, res) = if cell == 8 {
+                // Cells aligned with the bricks, so that each cell's range is
+                // the exact 9³ one of `block_lookup_range`. Lookups stay
+                // below `hi`.
+                let origin = (lo >> 3) << 3;
+                (origin, ((hi - 1 - origin) >> 3) + 1)
+            } else {
+                // ceil((hi - lo + 1) / cell), in 64 bits: the extent may
+                // be near 2^31 voxels.
+                let c = i64::from(cell);
+                let r = (hi.as_i64vec3() - lo.as_i64vec3() + c) / c;
+                (
+                    lo,
+                    r.min(glam::I64Vec3::splat(i64::from(i32::MAX))).as_ivec3(),
+                )
+            };
+            let cells = res.as_i64vec3();
+            if cells.x * cells.y * cells.z <= budget || cell >= 1 << 30 {
+                break (origin, res);
+            }
+            cell = cell.saturating_mul(2);
         };
-        let n = (res.x * res.y * res.z) as usize;
+        let n = (res.x as usize) * (res.y as usize) * (res.z as usize);
         let mut range = vec![[0.0f32; 2]; n];
         for z in 0..res.z {
             for y in 0..res.y {
