@@ -123,25 +123,29 @@ fn metadata_name_length_that_took_gigabytes() {
 /// both integrators, naming the file and the grid.
 #[test]
 fn absurd_absorption_is_refused_at_load() {
-    let scene = data("sigma_a_1e12.toml");
     for integrator in ["path", "photon"] {
-        let dir = common::tempdir();
-        let out = dir.path().join("o.exr");
-        let err = assert_refused(
-            &[
-                "render".as_ref(),
-                scene.as_os_str(),
-                "--integrator".as_ref(),
-                integrator.as_ref(),
-                "-o".as_ref(),
-                out.as_os_str(),
-            ],
+        let err = assert_render_refused(
+            "sigma_a_1e12.toml",
+            &["--integrator", integrator],
             "cloud.vdb', grid 'density'",
-            Duration::from_secs(2),
         );
         assert!(err.contains("optical depth"), "{err}");
-        assert!(common::dir_entries(dir.path()).is_empty());
     }
+}
+
+/// Renders the scene `name` of tests/data/fuzz with `args` into a fresh
+/// directory; asserts a clean refusal naming `names` within 2 s, and
+/// nothing written.
+fn assert_render_refused(name: &str, args: &[&str], names: &str) -> String {
+    let scene = data(name);
+    let dir = common::tempdir();
+    let out = dir.path().join("o.exr");
+    let mut all: Vec<&std::ffi::OsStr> = vec!["render".as_ref(), scene.as_os_str()];
+    all.extend(args.iter().map(std::ffi::OsStr::new));
+    all.extend(["-o".as_ref(), out.as_os_str()]);
+    let err = assert_refused(&all, names, Duration::from_secs(2));
+    assert!(common::dir_entries(dir.path()).is_empty());
+    err
 }
 
 /// AFL++'s render target (stop 28): a temperature grid whose transform puts
@@ -187,19 +191,10 @@ fn emission_far_from_the_density_renders_at_once() {
 /// the grid, before any acceleration grid is built.
 #[test]
 fn a_volume_beyond_single_precision_is_refused() {
-    let scene = data("afl_density_1e115.toml");
-    let dir = common::tempdir();
-    let out = dir.path().join("o.exr");
-    let err = assert_refused(
-        &[
-            "render".as_ref(),
-            scene.as_os_str(),
-            "-o".as_ref(),
-            out.as_os_str(),
-        ],
+    let err = assert_render_refused(
+        "afl_density_1e115.toml",
+        &[],
         "afl_density_1e115.vdb', grid 'density'",
-        Duration::from_secs(2),
     );
     assert!(err.contains("single-precision world space"), "{err}");
-    assert!(common::dir_entries(dir.path()).is_empty());
 }

@@ -18,11 +18,7 @@ def cube(name, value, n=16):
     g = vdb.FloatGrid()
     g.name = name
     g.gridClass = vdb.GridClass.FOG_VOLUME
-    a = g.getAccessor()
-    for x in range(n):
-        for y in range(n):
-            for z in range(n):
-                a.setValueOn((x, y, z), value)
+    g.fill((0, 0, 0), (n - 1, n - 1, n - 1), value, active=True)
     return g
 
 s = 0.0625
