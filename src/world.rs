@@ -42,17 +42,8 @@ pub type WorldBox = [DVec3; 2];
 
 /// The axis-aligned box around `t` applied to the box `[lo, hi]`.
 fn transform_box(t: &DAffine3, lo: DVec3, hi: DVec3) -> WorldBox {
-    let mut out = [DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)];
-    for i in 0..8 {
-        let c = DVec3::new(
-            if i & 1 == 0 { lo.x } else { hi.x },
-            if i & 2 == 0 { lo.y } else { hi.y },
-            if i & 4 == 0 { lo.z } else { hi.z },
-        );
-        let w = t.transform_point3(c);
-        out = [out[0].min(w), out[1].max(w)];
-    }
-    out
+    let (a, b) = crate::medium::transform_box(*t, lo, hi);
+    [a, b]
 }
 
 /// The box (in the file's world space, before a scene transform) of a
@@ -178,16 +169,9 @@ fn check_world_range(f: &VdbFile, v: &VolumeDesc, density: &Grid<f32>) -> Result
         return Ok(());
     };
     let m = v.transform * density.world_from_index();
-    let limit = f64::from(f32::MAX) / 2.0;
-    let inside = (0..8).all(|k| {
-        let c = DVec3::new(
-            f64::from(if k & 1 == 0 { lo.x } else { hi.x + 1 }),
-            f64::from(if k & 2 == 0 { lo.y } else { hi.y + 1 }),
-            f64::from(if k & 4 == 0 { lo.z } else { hi.z + 1 }),
-        );
-        m.transform_point3(c).abs().cmplt(DVec3::splat(limit)).all()
-    });
-    if inside {
+    let limit = DVec3::splat(f64::from(f32::MAX) / 2.0);
+    let [a, b] = transform_box(&m, lo.as_dvec3(), (hi + 1).as_dvec3());
+    if a.abs().cmplt(limit).all() && b.abs().cmplt(limit).all() {
         return Ok(());
     }
     let o = m.translation;

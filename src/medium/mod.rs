@@ -102,9 +102,8 @@ fn affine_f32(m: DAffine3) -> Affine3A {
     Affine3A::from_mat3_translation(m.matrix3.as_mat3(), m.translation.as_vec3())
 }
 
-/// The integer box (inclusive, padded by one voxel) that covers the image of
-/// the box `[lo, hi]` under `m`.
-fn map_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (IVec3, IVec3) {
+/// The box that bounds the image of the box `[lo, hi]` under `m`.
+pub(crate) fn transform_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
     let mut a = DVec3::splat(f64::INFINITY);
     let mut b = DVec3::splat(f64::NEG_INFINITY);
     for k in 0..8 {
@@ -117,6 +116,13 @@ fn map_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (IVec3, IVec3) {
         a = a.min(w);
         b = b.max(w);
     }
+    (a, b)
+}
+
+/// The integer box (inclusive, padded by one voxel) that covers the image of
+/// the box `[lo, hi]` under `m`.
+fn map_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (IVec3, IVec3) {
+    let (a, b) = transform_box(m, lo, hi);
     let clamp = |v: DVec3| v.clamp(DVec3::splat(-1e9), DVec3::splat(1e9));
     (
         clamp(a.floor()).as_ivec3() - 1,

@@ -155,20 +155,24 @@ pub fn trace(
             }
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let mut rng = Rng::new(Domain::Photon, seed, pass as u64, i as u64);
-                let f = trace_one(world, emitters, n, max_bounces, store, &mut rng, &mut out);
-                sum.eligible += f.eligible;
-                sum.weight += f.weight;
-                sum.scattered += (f.collisions > 0) as u64;
-                sum.collisions += f.collisions;
+                sum.add(trace_one(
+                    world,
+                    emitters,
+                    n,
+                    max_bounces,
+                    store,
+                    &mut rng,
+                    &mut out,
+                ));
             }
             (out, sum)
         })
         .collect();
     let stored = parts.iter().map(|p| p.0.len() as u64).sum();
-    let eligible = parts.iter().map(|p| p.1.eligible).sum();
-    let eligible_weight = parts.iter().map(|p| p.1.weight).sum();
-    let scattered = parts.iter().map(|p| p.1.scattered).sum();
-    let collisions = parts.iter().map(|p| p.1.collisions).sum();
+    let mut all = Flights::default();
+    for p in &parts {
+        all.add(p.1);
+    }
     let mut photons = Vec::with_capacity(stored as usize);
     for (p, _) in parts {
         photons.extend(p);
@@ -177,11 +181,11 @@ pub fn trace(
         photons,
         TraceStats {
             emitted: n as u64,
-            eligible,
-            eligible_weight,
+            eligible: all.eligible,
+            eligible_weight: all.weight,
             stored,
-            scattered,
-            collisions,
+            scattered: all.scattered,
+            collisions: all.collisions,
         },
     )
 }
@@ -199,7 +203,16 @@ struct Flights {
     collisions: u64,
 }
 
-/// One photon's flight: what it met (`scattered` is not filled in).
+impl Flights {
+    fn add(&mut self, o: Flights) {
+        self.eligible += o.eligible;
+        self.weight += o.weight;
+        self.scattered += o.scattered;
+        self.collisions += o.collisions;
+    }
+}
+
+/// One photon's flight: what it met.
 fn trace_one(
     world: &World,
     emitters: &Emitters,
@@ -238,6 +251,7 @@ fn trace_one(
                 return false;
             }
             flight.collisions += 1;
+            flight.scattered = 1;
             if collisions >= 2 || e.from_media {
                 flight.eligible += 1;
                 let w = store.weight(c.p);

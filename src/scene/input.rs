@@ -42,21 +42,8 @@ impl<'de> Deserialize<'de> for Splat3 {
             fn visit_u64<E: de::Error>(self, v: u64) -> Result<Splat3, E> {
                 Ok(Splat3([v as f64; 3]))
             }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Splat3, A::Error> {
-                let mut out = [0.0; 3];
-                for (i, slot) in out.iter_mut().enumerate() {
-                    *slot = seq
-                        .next_element()?
-                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
-                }
-                let mut n = 3;
-                while seq.next_element::<de::IgnoredAny>()?.is_some() {
-                    n += 1;
-                }
-                if n != 3 {
-                    return Err(de::Error::invalid_length(n, &self));
-                }
-                Ok(Splat3(out))
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Splat3, A::Error> {
+                read_exact(seq, &self).map(Splat3)
             }
         }
         d.deserialize_any(V)
@@ -77,29 +64,37 @@ impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Exact<T, N> 
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
                 write!(f, "an array of length {N}")
             }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Exact<T, N>, A::Error> {
-                let mut items = Vec::with_capacity(N);
-                while items.len() < N {
-                    match seq.next_element()? {
-                        Some(v) => items.push(v),
-                        None => return Err(de::Error::invalid_length(items.len(), &self)),
-                    }
-                }
-                let mut n = N;
-                while seq.next_element::<de::IgnoredAny>()?.is_some() {
-                    n += 1;
-                }
-                if n != N {
-                    return Err(de::Error::invalid_length(n, &self));
-                }
-                let items: [T; N] = items
-                    .try_into()
-                    .map_err(|_| de::Error::invalid_length(n, &self))?;
-                Ok(Exact(items))
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Exact<T, N>, A::Error> {
+                read_exact(seq, &self).map(Exact)
             }
         }
         d.deserialize_seq(V(std::marker::PhantomData))
     }
+}
+
+/// Exactly `N` elements of `seq`, or an "invalid length" error against
+/// `expected` that counts them all.
+fn read_exact<'de, A: SeqAccess<'de>, T: Deserialize<'de>, const N: usize>(
+    mut seq: A,
+    expected: &dyn de::Expected,
+) -> Result<[T; N], A::Error> {
+    let mut items = Vec::with_capacity(N);
+    while items.len() < N {
+        match seq.next_element()? {
+            Some(v) => items.push(v),
+            None => return Err(de::Error::invalid_length(items.len(), expected)),
+        }
+    }
+    let mut n = N;
+    while seq.next_element::<de::IgnoredAny>()?.is_some() {
+        n += 1;
+    }
+    if n != N {
+        return Err(de::Error::invalid_length(n, expected));
+    }
+    items
+        .try_into()
+        .map_err(|_| de::Error::invalid_length(n, expected))
 }
 
 /// `Option<[f64; N]>` through [`Exact`] (for `deserialize_with`).

@@ -184,8 +184,6 @@ struct Tally {
     refused_cpu: Vec<f64>,
     /// The slowest refusal by its own time: seconds, item.
     slowest_own: (f64, usize),
-    /// Refusals whose own time was over [`REFUSAL_SECONDS`].
-    slow_refusals: usize,
     max_seconds: f64,
     max_rss: u64,
     crashes: usize,
@@ -285,9 +283,6 @@ impl Campaign {
                 t.refused_cpu.push(cpu);
                 if own > t.slowest_own.0 {
                     t.slowest_own = (own, item);
-                }
-                if own > REFUSAL_SECONDS {
-                    t.slow_refusals += 1;
                 }
             }
             let lines: Vec<&str> = out
@@ -612,6 +607,11 @@ fn percentile(v: &mut [f64], p: f64) -> f64 {
     v[((v.len() - 1) as f64 * p).round() as usize]
 }
 
+/// Median, 99th percentile and maximum.
+fn spread(v: &mut [f64]) -> (f64, f64, f64) {
+    (percentile(v, 0.5), percentile(v, 0.99), percentile(v, 1.0))
+}
+
 fn run(a: RunArgs) -> ExitCode {
     let me = std::env::current_exe().expect("own path");
     let vdbphoton = a
@@ -754,10 +754,7 @@ fn run(a: RunArgs) -> ExitCode {
     println!("kind     inputs  accepted  refused  crashes  hangs  memory  wrong-accepts  bad-messages  refusal time median/p99/max  slowest  peak RSS");
     for k in [Kind::Vdb, Kind::Scene, Kind::Render] {
         let t = &mut tallies[k as usize];
-        let (m, p99, mx) = {
-            let v = &mut t.refused_seconds;
-            (percentile(v, 0.5), percentile(v, 0.99), percentile(v, 1.0))
-        };
+        let (m, p99, mx) = spread(&mut t.refused_seconds);
         bad += t.crashes + t.hangs + t.memory + t.wrong_accepts + t.bad_messages;
         println!(
             "{:<7} {:>7} {:>9} {:>8} {:>8} {:>6} {:>7} {:>14} {:>13}   {:>6.3} / {:.3} / {:.3} s   {:>6.2} s  {:>4} MiB",
@@ -777,17 +774,16 @@ fn run(a: RunArgs) -> ExitCode {
             t.max_rss >> 20
         );
         if t.refused > 0 {
-            let (om, op99, omx) = {
-                let v = &mut t.refused_own;
-                (percentile(v, 0.5), percentile(v, 0.99), percentile(v, 1.0))
-            };
-            let (cm, cp99, cmx) = {
-                let v = &mut t.refused_cpu;
-                (percentile(v, 0.5), percentile(v, 0.99), percentile(v, 1.0))
-            };
+            let (om, op99, omx) = spread(&mut t.refused_own);
+            let (cm, cp99, cmx) = spread(&mut t.refused_cpu);
+            let slow = t
+                .refused_own
+                .iter()
+                .filter(|&&s| s > REFUSAL_SECONDS)
+                .count();
             println!(
                 "        slowest refusal: #{} ({:.3} s); the refused command alone: median/p99/max {om:.3} / {op99:.3} / {omx:.3} s wall, {cm:.3} / {cp99:.3} / {cmx:.3} s CPU; over {REFUSAL_SECONDS} s: {} (slowest #{}, {:.3} s)",
-                t.slowest_refusal.1, t.slowest_refusal.0, t.slow_refusals, t.slowest_own.1, t.slowest_own.0
+                t.slowest_refusal.1, t.slowest_refusal.0, slow, t.slowest_own.1, t.slowest_own.0
             );
         }
     }
