@@ -40,6 +40,7 @@ fn photons(world: &World, e: &Emitters, n: u32, store: f32, want: usize) -> Vec<
             n,
             7,
             pass,
+            0.0,
             1024,
             photon::Store {
                 scale: store,
@@ -82,6 +83,7 @@ fn main() {
             n,
             1,
             0,
+            0.0,
             desc.render.max_bounces,
             photon::Store::ALL,
         );

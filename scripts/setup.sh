@@ -6,7 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-PACKAGES="libopenvdb-dev libboost-dev libtbb-dev libimath-dev g++ pkg-config"
+PACKAGES="libopenvdb-dev libboost-dev libtbb-dev libimath-dev g++ pkg-config python3-venv"
 missing=""
 for p in $PACKAGES; do
     dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"
@@ -25,6 +25,11 @@ fi
 
 echo "== building vdbphoton (release)"
 cargo build --release --locked
+
+# Intel Open Image Denoise 2.x for --denoise (not packaged in Debian 12):
+# PyPI's pyoidn wheel carries its libraries; vdbphoton finds them in
+# target/venv-oidn. Optional: without it everything but --denoise works.
+bash scripts/install_oidn.sh || echo "warning: Open Image Denoise was not installed; --denoise will say how to get it" >&2
 
 mkdir -p out
 echo "== rendering the default scene"

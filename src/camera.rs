@@ -84,6 +84,29 @@ impl Plane {
     }
 }
 
+/// When the shutter is open, in frames from the frame being rendered
+/// (pbrt-v4's `shutterOpen`, `shutterClose`; Blender's motion blur
+/// Shutter and Position). Camera samples are spread uniformly over it, as
+/// Blender's default shutter curve does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shutter {
+    pub open: f32,
+    pub close: f32,
+}
+
+impl Shutter {
+    /// The time at `u` ∈ [0, 1) of the way through the shutter.
+    #[inline]
+    pub fn time(&self, u: f32) -> f32 {
+        self.open + u * (self.close - self.open)
+    }
+
+    /// The largest time from the frame the shutter reaches, either way.
+    pub fn max_time(&self) -> f32 {
+        self.open.abs().max(self.close.abs())
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 pub struct Camera {
     position: Vec3,
@@ -94,6 +117,8 @@ pub struct Camera {
     plane: Plane,
     width: u32,
     height: u32,
+    /// Open over these times (motion blur); `None`: the frame's instant.
+    shutter: Option<Shutter>,
 }
 
 impl Camera {
@@ -140,7 +165,18 @@ impl Camera {
             plane,
             width,
             height,
+            shutter: None,
         }
+    }
+
+    /// The camera with its shutter open over `shutter` (motion blur).
+    pub fn with_shutter(self, shutter: Option<Shutter>) -> Self {
+        Self { shutter, ..self }
+    }
+
+    /// The shutter, when the camera blurs motion.
+    pub fn shutter(&self) -> Option<Shutter> {
+        self.shutter
     }
 
     pub fn position(&self) -> Vec3 {

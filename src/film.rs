@@ -151,11 +151,16 @@ pub struct Film {
     transmittance: Vec<f64>,
     /// AOV sums, when they are kept.
     aovs: Option<Vec<AovSums>>,
+    /// Sums of the denoising albedo, when the render is denoised.
+    albedo: Option<Vec<Rgb>>,
     /// Samples per pixel so far.
     samples: Vec<u32>,
 }
 
 impl Film {
+    /// Bytes per pixel the denoising albedo adds ([`Self::with_albedo`]).
+    pub const ALBEDO_BYTES: usize = std::mem::size_of::<Rgb>();
+
     /// An empty film over `region` of a `width` x `height` image, with AOV
     /// sums when `aovs`.
     pub fn new(width: u32, height: u32, region: Region, aovs: bool) -> Self {
@@ -167,12 +172,31 @@ impl Film {
             l: vec![DVec3::ZERO; n],
             transmittance: vec![0.0; n],
             aovs: aovs.then(|| vec![AovSums::default(); n]),
+            albedo: None,
             samples: vec![0; n],
         }
     }
 
+    /// The film also keeps the denoising albedo of its samples
+    /// ([`SampleResult::albedo`]), written as the layer `albedo`.
+    pub fn with_albedo(self) -> Self {
+        let n = self.samples.len();
+        Self {
+            albedo: Some(vec![Rgb::ZERO; n]),
+            ..self
+        }
+    }
+
+    /// Whether the film keeps the denoising albedo.
+    pub fn has_albedo(&self) -> bool {
+        self.albedo.is_some()
+    }
+
     /// Bytes a film of `pixels` pixels takes, for memory checks before a
     /// render.
+    /// Bytes a film of `pixels` pixels takes (with the AOVs when `aovs`);
+    /// a film [`Self::with_albedo`] takes [`Self::ALBEDO_BYTES`] a pixel
+    /// more.
     pub fn bytes_for(pixels: usize, aovs: bool) -> usize {
         pixels
             * (std::mem::size_of::<DVec3>()
@@ -208,6 +232,9 @@ impl Film {
             a[i].indirect += s.indirect;
             a[i].emission += s.emission;
         }
+        if let (Some(a), true) = (&mut self.albedo, s.albedo.is_finite()) {
+            a[i] += s.albedo;
+        }
     }
 
     /// Adds every sum and count of `other`, a film of the same region.
@@ -225,6 +252,11 @@ impl Film {
                 x.direct += y.direct;
                 x.indirect += y.indirect;
                 x.emission += y.emission;
+            }
+        }
+        if let (Some(a), Some(b)) = (&mut self.albedo, &other.albedo) {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += *y;
             }
         }
         Ok(())
@@ -299,6 +331,12 @@ impl Film {
             let layer = image.add_layer("transmittance", &["Y"])?;
             for (i, t) in tr.iter().enumerate() {
                 layer.set(i % w, i / w, &[*t]);
+            }
+        }
+        if let Some(a) = &self.albedo {
+            let layer = image.add_rgb_layer(crate::denoise::ALBEDO_LAYER)?;
+            for (i, s) in a.iter().enumerate() {
+                layer.set(i % w, i / w, &(*s * self.inv(i) as f32).to_array());
             }
         }
         image.set_window(

@@ -5,6 +5,7 @@
 
 pub mod atomic;
 pub mod camera;
+pub mod denoise;
 pub mod error;
 pub mod film;
 pub mod frames;
@@ -20,6 +21,7 @@ pub mod merge;
 pub mod phase;
 pub mod photon;
 pub mod quicklook;
+pub mod ray;
 pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -48,6 +48,10 @@ enum Command {
         /// or filmic (Blender 3's) (default: the inputs' own).
         #[arg(long, value_parser = parse_view)]
         view: Option<View>,
+        /// Denoise the merged image with Intel Open Image Denoise 2.x (also
+        /// without this when every input's render asked for it).
+        #[arg(long)]
+        denoise: bool,
     },
     /// Show the grids of .vdb files (like `vdb_print -l`): value type, voxel
     /// counts, index and world boxes, transform, value range, the memory
@@ -148,6 +152,10 @@ struct RenderArgs {
     /// Write AOV layers (direct, indirect, emission, transmittance).
     #[arg(long)]
     aovs: bool,
+    /// Denoise the image with Intel Open Image Denoise 2.x (the EXR keeps
+    /// the raw render as the layer `noisy`; tiles are denoised by `merge`).
+    #[arg(long)]
+    denoise: bool,
     /// Write no PNG preview, whatever the scene says.
     #[arg(long, conflicts_with = "preview")]
     no_preview: bool,
@@ -677,6 +685,7 @@ fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
         r.integrator = i.into();
     }
     r.aovs |= a.aovs;
+    r.denoise |= a.denoise;
     desc.validate().map_err(|e| {
         Error::Argument(format!(
             "{}: after the command-line options: {e}",
@@ -819,8 +828,18 @@ fn run(cli: Cli) -> Result<()> {
             preview,
             exposure,
             view,
+            denoise,
         } => {
-            let m = vdbphoton::merge::merge(&out, &inputs, preview.as_deref(), exposure, view)?;
+            let m = vdbphoton::merge::merge(
+                &out,
+                &inputs,
+                &vdbphoton::merge::MergeOptions {
+                    preview: preview.as_deref(),
+                    exposure,
+                    view,
+                    denoise,
+                },
+            )?;
             for p in &m.outputs {
                 println!("Saved: '{}'", p.display());
             }

@@ -9,6 +9,13 @@
 //! groups are averaged pixel by pixel, each weighted by its samples per
 //! pixel. With one group the pixels are copied, so the merged frame is the
 //! same bits as a render of the whole frame.
+//!
+//! Denoising happens here for tiles (never per tile: a tile's denoised
+//! edge would not meet its neighbour's): with `--denoise`, or when every
+//! input's render asked for it, the merged frame is denoised with the
+//! merged `albedo` layer as its guide. A denoised input (a whole frame
+//! rendered with `--denoise`) takes part with its raw pixels, its `noisy`
+//! layer.
 
 use crate::error::{Error, Result};
 use crate::film::Region;
@@ -41,7 +48,8 @@ struct Input {
 
 impl Input {
     fn read(path: &Path) -> Result<Input> {
-        let (image, attrs) = read_exr(path)?;
+        let (mut image, attrs) = read_exr(path)?;
+        crate::denoise::restore_raw(&mut image);
         let attrs: BTreeMap<String, String> = attrs.into_iter().collect();
         let spp = attrs
             .get("vdbphoton/spp")
@@ -78,6 +86,19 @@ impl Input {
             .map(|l| (l.name().to_string(), l.channels().to_vec()))
             .collect()
     }
+}
+
+/// How a merge writes its result.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MergeOptions<'a> {
+    /// Also write a PNG preview here.
+    pub preview: Option<&'a Path>,
+    /// The preview's exposure (default: the inputs').
+    pub exposure: Option<f32>,
+    /// The preview's view transform (default: the inputs').
+    pub view: Option<View>,
+    /// Denoise the merged frame (also done when every input asked for it).
+    pub denoise: bool,
 }
 
 /// What a merge made.
@@ -140,13 +161,13 @@ fn missing_tiles(tiles: &[&Input], width: u32, height: u32) -> Option<String> {
 /// preview, by default with the exposure and view transform the inputs
 /// were rendered with), atomically. Every problem is one line naming the
 /// files.
-pub fn merge(
-    out: &Path,
-    inputs: &[PathBuf],
-    preview: Option<&Path>,
-    exposure: Option<f32>,
-    view: Option<View>,
-) -> Result<MergeSummary> {
+pub fn merge(out: &Path, inputs: &[PathBuf], options: &MergeOptions) -> Result<MergeSummary> {
+    let MergeOptions {
+        preview,
+        exposure,
+        view,
+        ..
+    } = *options;
     crate::render::prepare_outputs(out, preview)?;
     if inputs.is_empty() {
         return Err(Error::Argument("merge: no input EXR given".into()));
@@ -199,7 +220,7 @@ pub fn merge(
             return Err(Error::file(
                 &f.path,
                 format!(
-                    "has layers {} but '{}' has {} (render all parts with the same --aovs)",
+                    "has layers {} but '{}' has {} (render all parts with the same --aovs and --denoise)",
                     names(&f.layers()),
                     first.path.display(),
                     names(&layers)
@@ -222,6 +243,28 @@ pub fn merge(
             }
         }
     }
+    // Denoising: asked for, or asked for by every input's render. The
+    // library is loaded and the memory checked before anything is merged.
+    let denoise = options.denoise
+        || files
+            .iter()
+            .all(|f| f.attrs.contains_key("vdbphoton/denoise"));
+    let denoiser = if denoise {
+        let pixels = (dw * dh) as u64;
+        let need = pixels * (crate::denoise::BYTES_PER_PIXEL + 64);
+        if let Some(avail) = crate::memory::available() {
+            if need > avail {
+                return Err(Error::Argument(format!(
+                    "merge: denoising the {dw} x {dh} frame needs about {:.1} GiB but {:.1} GiB is available",
+                    need as f64 / (1u64 << 30) as f64,
+                    avail as f64 / (1u64 << 30) as f64
+                )));
+            }
+        }
+        Some(crate::render::Denoiser::load(0)?)
+    } else {
+        None
+    };
     // The area the merge covers: one shared data window, or the frame.
     let same_window = files.iter().all(|f| f.region == first.region);
     let area = if same_window {
@@ -358,6 +401,14 @@ pub fn merge(
         groups.keys().copied().collect::<Vec<_>>().join(","),
     ));
     attrs.push(("vdbphoton/merged_inputs".into(), files.len().to_string()));
+    let mut failed = None;
+    if let Some(d) = &denoiser {
+        attrs.push(("vdbphoton/denoise".into(), "done".into()));
+        match d.apply(&mut merged) {
+            Ok(()) => attrs.push(("vdbphoton/denoiser".into(), d.describe(&merged))),
+            Err(e) => failed = Some(e),
+        }
+    }
     if let Some(s) = first.attrs.get("vdbphoton/scene") {
         attrs.push(("vdbphoton/scene".into(), s.clone()));
     }
@@ -378,6 +429,12 @@ pub fn merge(
     if let Some(p) = preview {
         write_png_preview(p, &merged, exposure, view)?;
         outputs.push(p.to_path_buf());
+    }
+    if let Some(e) = failed {
+        return Err(Error::Argument(format!(
+            "{e}; the merged raw frame is written to '{}'",
+            out.display()
+        )));
     }
     Ok(MergeSummary {
         width: dw as u32,

@@ -123,6 +123,9 @@ pub fn scene_for(file: &Path) -> Result<(SceneDesc, Vec<String>)> {
             bounds: VolumeBounds::Active,
             frame_offset: 0,
             temperature_from_flame: None,
+            velocity_grid: None,
+            velocity_scale: Vec3::ONE,
+            velocity_unit: Default::default(),
         }],
     };
     Ok((desc, notes))

@@ -87,13 +87,15 @@ fn gib(b: u64) -> String {
 /// word about their memory and work before they start.
 const LARGE_IMAGE_PIXELS: u64 = 1 << 24;
 
-/// Refuses a render that will not fit in `limit` bytes: film and images,
-/// the photon map of a pass, and the grids (when loaded).
+/// Refuses a render that will not fit in `limit` bytes: film and images
+/// (with the denoiser's own memory when `denoise`), the photon map of a
+/// pass, and the grids (when loaded).
 fn check_memory(
     desc: &SceneDesc,
     region: Region,
     grids: u64,
     photon: bool,
+    denoise: bool,
     limit: Option<u64>,
 ) -> Result<()> {
     let Some(limit) = limit.or_else(crate::memory::available) else {
@@ -101,8 +103,18 @@ fn check_memory(
     };
     let r = &desc.render;
     let pixels = region.pixels() as u64;
-    let film =
-        Film::bytes_for(pixels as usize, r.aovs) as u64 + pixels * image_bytes_per_pixel(r.aovs);
+    let film = Film::bytes_for(pixels as usize, r.aovs) as u64
+        + pixels * image_bytes_per_pixel(r.aovs)
+        + if r.denoise {
+            pixels * Film::ALBEDO_BYTES as u64
+        } else {
+            0
+        }
+        + if denoise {
+            pixels * crate::denoise::BYTES_PER_PIXEL
+        } else {
+            0
+        };
     let photons = if photon {
         r.photon.photons_for(r.width, r.height) as u64 * PHOTON_PEAK_BYTES
     } else {
@@ -111,8 +123,9 @@ fn check_memory(
     let need = film + photons + grids;
     if need > limit {
         return Err(Error::Argument(format!(
-            "the render needs about {} (film and images {} for {} x {} pixels, photon map {}, grids {}) but {} {}; lower the image size or `photons`, or give --max-memory",
+            "the render needs about {} (film and images{} {} for {} x {} pixels, photon map {}, grids {}) but {} {}; lower the image size or `photons`, or give --max-memory",
             gib(need),
+            if denoise { " and denoising" } else { "" },
             gib(film),
             region.width(),
             region.height(),
@@ -325,6 +338,18 @@ fn attributes(
             format!("{seconds:.3}"),
         ),
     ];
+    let m = &r.motion_blur;
+    if m.enabled {
+        a.push((
+            "vdbphoton/motion_blur".to_string(),
+            format!(
+                "shutter {} frames, {}, {} fps",
+                m.shutter,
+                m.position.name(),
+                m.fps
+            ),
+        ));
+    }
     for (k, v) in integrator.attributes() {
         if !a.iter().any(|(x, _)| *x == k) {
             a.push((k, v));
@@ -334,22 +359,71 @@ fn attributes(
     a
 }
 
-/// Writes the film's image to the EXR and the preview (each atomically).
+/// Writes the film's image to the EXR and the preview (each atomically),
+/// denoised when `denoiser` is given. Should denoising fail, the raw image
+/// is written all the same and the error returned after: a finished
+/// render is never lost to it.
 fn write_outputs(
     desc: &SceneDesc,
     film: &Film,
     attrs: &[(String, String)],
     view: crate::image::View,
+    denoiser: Option<&Denoiser>,
 ) -> Result<Vec<PathBuf>> {
     let r = &desc.render;
-    let image = film.to_image()?;
-    crate::image::write_exr(&r.output, &image, attrs)?;
+    let mut image = film.to_image()?;
+    let mut attrs = attrs.to_vec();
+    let mut failed = None;
+    if let Some(d) = denoiser {
+        match d.apply(&mut image) {
+            Ok(()) => attrs.push(("vdbphoton/denoiser".into(), d.describe(&image))),
+            Err(e) => failed = Some(e),
+        }
+    }
+    crate::image::write_exr(&r.output, &image, &attrs)?;
     let mut out = vec![r.output.clone()];
     if let Some(p) = &r.preview {
         crate::image::write_png_preview(p, &image, r.exposure, view)?;
         out.push(p.clone());
     }
-    Ok(out)
+    match failed {
+        None => Ok(out),
+        Some(e) => Err(Error::Argument(format!(
+            "{e}; the raw render is written to '{}'",
+            r.output.display()
+        ))),
+    }
+}
+
+/// The denoiser of a render (Open Image Denoise, loaded when the render
+/// starts, so that a missing library stops it before any work).
+pub struct Denoiser {
+    oidn: crate::denoise::Oidn,
+    quality: crate::denoise::Quality,
+}
+
+impl Denoiser {
+    /// Loads Open Image Denoise for `threads` threads (0: all cores).
+    pub fn load(threads: usize) -> Result<Self> {
+        Ok(Self {
+            oidn: crate::denoise::Oidn::load(threads).map_err(Error::Argument)?,
+            quality: crate::denoise::Quality::High,
+        })
+    }
+
+    /// Denoises `image` in place (`crate::denoise::denoise_image`).
+    pub fn apply(&self, image: &mut crate::image::Image) -> Result<()> {
+        crate::denoise::denoise_image(&self.oidn, image, self.quality).map_err(Error::Argument)
+    }
+
+    /// The header's description of what was done to `image`.
+    pub fn describe(&self, image: &crate::image::Image) -> String {
+        crate::denoise::describe(
+            &self.oidn,
+            self.quality,
+            image.layer(crate::denoise::ALBEDO_LAYER).is_some(),
+        )
+    }
 }
 
 /// When a render stops.
@@ -472,7 +546,23 @@ pub fn render_scene(
             region.pixels() as f64 / (1920.0 * 1080.0)
         ));
     }
-    check_memory(desc, region, 0, wants_photons, opts.max_memory)?;
+    // Tiles and regions are denoised when merged (`merge`), never alone: a
+    // tile's denoised edge would not meet its neighbour's.
+    let part = opts.tile.is_some() || opts.region.is_some();
+    let denoise_here = r.denoise && !part;
+    check_memory(
+        desc,
+        region,
+        0,
+        wants_photons,
+        denoise_here,
+        opts.max_memory,
+    )?;
+    let denoiser = if denoise_here {
+        Some(Denoiser::load(opts.threads.unwrap_or(0))?)
+    } else {
+        None
+    };
     // The preview's settings travel with the image, so that `merge` shows
     // merged tiles as the render would have.
     let mut extra = opts.attributes.clone();
@@ -480,6 +570,14 @@ pub fn render_scene(
     extra.push(("vdbphoton/view".into(), opts.view.name().into()));
     if let Some((i, n)) = opts.tile {
         extra.push(("vdbphoton/tile".into(), format!("{i}/{n}")));
+    }
+    if r.denoise {
+        // The request travels with the image: `merge` denoises tiles, and
+        // renders of other seeds averaged, when every input asked for it.
+        extra.push((
+            "vdbphoton/denoise".into(),
+            if part { "at merge" } else { "done" }.into(),
+        ));
     }
     let run = || -> Result<Summary> {
         let world = World::load(desc)?;
@@ -489,12 +587,23 @@ pub fn render_scene(
             .iter()
             .map(|v| v.memory_bytes() as u64)
             .sum();
-        check_memory(desc, region, grids, wants_photons, opts.max_memory)?;
+        check_memory(
+            desc,
+            region,
+            grids,
+            wants_photons,
+            denoise_here,
+            opts.max_memory,
+        )?;
         for w in &world.warnings {
             reporter.warning(w);
         }
         let mut integrator = make_integrator(desc, &world)?;
         let mut film = Film::new(r.width, r.height, region, r.aovs);
+        if r.denoise {
+            integrator.enable_albedo(&world);
+            film = film.with_albedo();
+        }
         let per_pass = integrator.samples_per_pass().max(1);
         let stop = match opts.time_limit {
             Some(t) => Stop::Time(t),
@@ -524,7 +633,7 @@ pub fn render_scene(
                     t0.elapsed().as_secs_f64(),
                     &extra,
                 );
-                write_outputs(desc, film, &attrs, opts.view)?;
+                write_outputs(desc, film, &attrs, opts.view, denoiser.as_ref())?;
                 reporter.checkpoint(&r.output, passes);
                 last_checkpoint = Instant::now();
                 Ok(())
@@ -541,7 +650,7 @@ pub fn render_scene(
             render_seconds,
             &extra,
         );
-        let outputs = write_outputs(desc, &film, &attrs, opts.view)?;
+        let outputs = write_outputs(desc, &film, &attrs, opts.view, denoiser.as_ref())?;
         for p in &outputs {
             reporter.saved(p);
         }

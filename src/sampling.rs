@@ -18,6 +18,14 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The van der Corput radical inverse of `i` in base 2, in [0, 1): any
+/// 2^m consecutive indices from a multiple of 2^m fall one in each of 2^m
+/// equal strata.
+#[inline]
+pub fn radical_inverse_2(i: u32) -> f32 {
+    (i.reverse_bits() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
 /// What a random stream is used for. Mixed into every key, so that two uses
 /// never draw the same numbers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -30,6 +38,13 @@ pub enum Domain {
     Photon,
     /// Per-pass choices shared by a whole pass: (seed, pass, 0).
     Pass,
+    /// A camera sample's time within the shutter: (seed, pixel, sample).
+    /// A stream of its own, so that a still frame draws exactly the numbers
+    /// it drew before motion blur existed.
+    Time,
+    /// The path tracer's march for the denoising albedo: (seed, pixel,
+    /// sample).
+    Albedo,
     /// Tests, benchmarks and tools.
     Test,
 }
@@ -43,6 +58,8 @@ impl Domain {
             Domain::Photon => 0xA409_3822_299F_31D1,
             Domain::Pass => 0x082E_FA98_EC4E_6C89,
             Domain::Test => 0x4528_21E6_38D0_1377,
+            Domain::Time => 0xBE54_66CF_34E9_0C6D,
+            Domain::Albedo => 0xC0AC_29B7_C97C_50DD,
         }
     }
 }

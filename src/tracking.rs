@@ -18,6 +18,7 @@
 
 use crate::medium::{Media, MediumPoint};
 use crate::phase::PhaseFunction;
+use crate::ray::Ray;
 use crate::sampling::{roulette, Rng};
 use crate::stats::{count_real, count_tentative};
 use crate::Rgb;
@@ -34,6 +35,8 @@ pub struct Collision<'a> {
     pub t: f32,
     /// World position.
     pub p: Vec3,
+    /// The ray's time (frames from the frame): where moving volumes are.
+    pub time: f32,
     /// The rate tentative collisions are sampled at here, per world unit:
     /// the majorant of sigma_t (≥ every channel), raised to the media's
     /// emission rate where something may emit.
@@ -53,7 +56,7 @@ impl Collision<'_> {
     /// The optics here (summed over volumes): one lookup, counted.
     #[inline]
     pub fn medium(&self) -> MediumPoint {
-        self.media.eval(self.p)
+        self.media.eval(self.p, self.time)
     }
 }
 
@@ -64,7 +67,7 @@ impl Collision<'_> {
 /// them up ends as if absorbed.
 pub const MAX_TENTATIVE: u32 = 1 << 20;
 
-/// Samples tentative collisions along `o + t d` (`d` unit) in `[0, t_max)`
+/// Samples tentative collisions along `ray` (`ray.d` unit) in `[0, t_max)`
 /// and calls `f` at each; `f` returns false to stop. The rate is the
 /// majorant of σt, and at least the media's emission rate where the
 /// majorant grid says something may emit, so that emission is met also
@@ -73,12 +76,12 @@ pub const MAX_TENTATIVE: u32 = 1 << 20;
 #[inline]
 pub fn sample_t_maj(
     media: &Media,
-    o: Vec3,
-    d: Vec3,
+    ray: &Ray,
     t_max: f32,
     rng: &mut Rng,
     mut f: impl FnMut(&Collision, &mut Rng) -> bool,
 ) -> bool {
+    let Ray { o, d, time } = *ray;
     let mut reached_end = true;
     let mut budget = MAX_TENTATIVE;
     let control = media.control_albedo().is_some();
@@ -113,6 +116,7 @@ pub fn sample_t_maj(
             let c = Collision {
                 t,
                 p: o + d * t,
+                time,
                 sigma_maj: rate,
                 sigma_c,
                 media,
@@ -186,7 +190,7 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
             }
         }
     }
-    let (m, volume) = c.media.eval_scatter(c.p, u_phase);
+    let (m, volume) = c.media.eval_scatter(c.p, c.time, u_phase);
     let phase = c.media.phase_of(volume);
     let sigma_t = m.sigma_t();
     let sigma_n = (Rgb::splat(c.sigma_maj) - sigma_t).max(Rgb::ZERO);
@@ -227,14 +231,15 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
 /// stops after a few lookups instead of running to its end.
 pub const TRANSMITTANCE_RR: f32 = 0.1;
 
-/// Transmittance along `o + t d` over `[0, t_max)` by residual ratio
+/// Transmittance along `ray` over `[0, t_max)` by residual ratio
 /// tracking (Novák, Selle & Jarosz 2014, §4): on each stretch of constant
 /// bounds the control medium σc (the minorant) attenuates analytically by
 /// exp(−σc·len), and tentative collisions at the residual rate σ̄ − σc each
 /// multiply by `1 − (sigma_t − σc)/(σ̄ − σc)` (per RGB channel). Without a
 /// minorant it is plain ratio tracking. Unbiased; Russian roulette when the
 /// estimate falls below 0.1.
-pub fn transmittance(media: &Media, o: Vec3, d: Vec3, t_max: f32, rng: &mut Rng) -> Rgb {
+pub fn transmittance(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng) -> Rgb {
+    let Ray { o, d, time } = *ray;
     let mut tr = Rgb::ONE;
     let mut budget = MAX_TENTATIVE;
     // Russian roulette on a small estimate; false when it ends at zero.
@@ -266,7 +271,7 @@ pub fn transmittance(media: &Media, o: Vec3, d: Vec3, t_max: f32, rng: &mut Rng)
                 return false;
             }
             count_tentative();
-            let m = media.eval(o + d * t);
+            let m = media.eval(o + d * t, time);
             let ratio = Rgb::ONE - (m.sigma_t() - Rgb::splat(sigma_c)) / rate;
             tr *= ratio.clamp(Rgb::ZERO, Rgb::ONE);
             if !play(&mut tr, rng) {
@@ -277,24 +282,16 @@ pub fn transmittance(media: &Media, o: Vec3, d: Vec3, t_max: f32, rng: &mut Rng)
     tr
 }
 
-/// Optical depth ∫σt dt over `[t0, t1]` of `o + t d` by the midpoint rule
+/// Optical depth ∫σt dt over `[t0, t1]` of `ray` by the midpoint rule
 /// with `steps` equal steps, the sample points shifted by `jitter` ∈ [0, 1)
 /// of a step (stratified: unbiased in expectation over the jitter).
-pub fn optical_depth(
-    media: &Media,
-    o: Vec3,
-    d: Vec3,
-    t0: f32,
-    t1: f32,
-    steps: u32,
-    jitter: f32,
-) -> Rgb {
+pub fn optical_depth(media: &Media, ray: &Ray, t0: f32, t1: f32, steps: u32, jitter: f32) -> Rgb {
     let steps = steps.max(1);
     let dt = (t1 - t0) / steps as f32;
     let mut tau = Rgb::ZERO;
     for i in 0..steps {
         let t = t0 + (i as f32 + jitter) * dt;
-        tau += media.eval(o + d * t).sigma_t();
+        tau += media.eval(ray.at(t), ray.time).sigma_t();
     }
     tau * dt
 }

@@ -1,17 +1,17 @@
 //! The world a render sees: a scene description (`crate::scene`, the only
 //! serde user) turned into loaded volumes, lights and a camera.
 
-use crate::camera::{Camera, Plane};
+use crate::camera::{Camera, Plane, Shutter};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::light::{EnvMap, Environment, Light};
-use crate::medium::{ExtraGrids, Material, Media, Volume};
+use crate::medium::{ExtraGrids, Material, Media, VelocityField, VelocityGrids, Volume};
 use crate::scene::{
-    CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, SceneDesc,
-    VolumeBounds, VolumeDesc,
+    CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MotionBlurDesc,
+    SceneDesc, VelocityUnit, VolumeBounds, VolumeDesc,
 };
 use crate::vdb::VdbFile;
-use glam::{DAffine3, DVec3, Vec2};
+use glam::{DAffine3, DVec3, Vec2, Vec3};
 use std::time::Instant;
 
 pub struct World {
@@ -185,12 +185,132 @@ fn check_world_range(f: &VdbFile, v: &VolumeDesc, density: &Grid<f32>) -> Result
     ))
 }
 
+/// The names a velocity grid goes by when a volume names none: Blender's
+/// and Mantaflow's `velocity`, Houdini's `vel`.
+pub const VELOCITY_NAMES: [&str; 2] = ["velocity", "vel"];
+
+/// The suffixes of split velocity grids, one float grid per component:
+/// Houdini's `vel.x` and Cycles' `velocity_x`.
+const SPLIT_SUFFIXES: [[&str; 3]; 2] = [[".x", ".y", ".z"], ["_x", "_y", "_z"]];
+
+/// The velocity grid of `v` (`velocity_grid`, or the first of
+/// [`VELOCITY_NAMES`] the file has): a `vec3s` grid, or three float
+/// grids `NAME.x`/`NAME.y`/`NAME.z` (or `NAME_x`, ...) on one transform.
+/// `None` when the volume names none and the file has none; an error when
+/// the named one is missing, of another type, or not finite.
+fn read_velocity(f: &VdbFile, v: &VolumeDesc) -> Result<Option<(String, VelocityGrids)>> {
+    let names = f.grid_names();
+    let has = |n: &str| names.contains(&n);
+    let candidates: Vec<&str> = match &v.velocity_grid {
+        Some(n) => vec![n.as_str()],
+        None => VELOCITY_NAMES.to_vec(),
+    };
+    let finite_vec = |g: Grid<Vec3>, n: &str| {
+        if g.all_finite() {
+            Ok(g)
+        } else {
+            Err(Error::grid(
+                f.path(),
+                n,
+                "has NaN or infinite velocities; fix the simulation or its export",
+            ))
+        }
+    };
+    for name in candidates {
+        if has(name) {
+            let d = f.descriptor(name)?;
+            return match d.channels() {
+                Some(3) => {
+                    let g = finite_vec(f.read_vec3(name)?, name)?;
+                    Ok(Some((name.to_string(), VelocityGrids::Vector(g))))
+                }
+                _ => Err(Error::grid(
+                    f.path(),
+                    name,
+                    format!(
+                        "is a {} grid, but a velocity grid holds vectors (vec3s), or is three float grids {name}.x, {name}.y, {name}.z",
+                        d.value_type()
+                    ),
+                )),
+            };
+        }
+        for suffixes in SPLIT_SUFFIXES {
+            let parts = suffixes.map(|s| format!("{name}{s}"));
+            if !parts.iter().all(|p| has(p)) {
+                continue;
+            }
+            let mut grids = Vec::with_capacity(3);
+            for p in &parts {
+                let d = f.descriptor(p)?;
+                if d.channels() != Some(1) {
+                    return Err(Error::grid(
+                        f.path(),
+                        p,
+                        format!(
+                            "is a {} grid, but a split velocity component is a float grid",
+                            d.value_type()
+                        ),
+                    ));
+                }
+                let g = f.read_float(p)?;
+                if !g.all_finite() {
+                    return Err(Error::grid(
+                        f.path(),
+                        p,
+                        "has NaN or infinite velocities; fix the simulation or its export",
+                    ));
+                }
+                grids.push(g);
+            }
+            let [x, y, z]: [Grid<f32>; 3] = grids
+                .try_into()
+                .map_err(|_| Error::grid(f.path(), name, "three velocity components expected"))?;
+            if y.world_from_index() != x.world_from_index()
+                || z.world_from_index() != x.world_from_index()
+            {
+                return Err(Error::grid(
+                    f.path(),
+                    name,
+                    format!(
+                        "the split velocity grids {} have different transforms; they must share one",
+                        parts.join(", ")
+                    ),
+                ));
+            }
+            return Ok(Some((name.to_string(), VelocityGrids::Split([x, y, z]))));
+        }
+    }
+    match &v.velocity_grid {
+        Some(n) => Err(Error::file(
+            f.path(),
+            format!(
+                "no velocity grid '{n}' (neither a vec3s grid '{n}' nor float grids '{n}.x', '{n}.y', '{n}.z'; its grids: {})",
+                names.join(", ")
+            ),
+        )),
+        None => Ok(None),
+    }
+}
+
+/// Displacements over the shutter beyond this many times a volume's
+/// largest extent are refused: the majorants, dilated by the motion, would
+/// cover that much empty space around the volume, and every ray would pay
+/// for it in null collisions (the cost grows with 1 + 2 × this).
+pub const MAX_BLUR_EXTENTS: f32 = 4.0;
+
 fn load_volume(
     v: &VolumeDesc,
+    motion_blur: &MotionBlurDesc,
     warnings: &mut Vec<String>,
 ) -> Result<(Option<Volume>, Option<WorldBox>)> {
     for w in idle_grids(v) {
         warnings.push(format!("'{}': {w}", v.file.display()));
+    }
+    if let (Some(g), false) = (&v.velocity_grid, motion_blur.enabled) {
+        warnings.push(format!(
+            "'{}': velocity_grid '{g}' has no effect: motion blur is off ([render] motion_blur = true turns it on)",
+            v.file.display()
+        ));
     }
     let f = VdbFile::open(&v.file)?;
     let density = read_scalar(&f, &v.density_grid)?;
@@ -244,7 +364,25 @@ fn load_volume(
             })
             .transpose()?,
         blackbody_filter: v.blackbody_filter,
+        velocity: None,
     };
+    let mut extra = extra;
+    if let Some((open, close)) = motion_blur.shutter_interval() {
+        if let Some((name, grids)) = read_velocity(&f, v)? {
+            let per_frame = v.velocity_scale
+                * match v.velocity_unit {
+                    VelocityUnit::Second => (1.0 / motion_blur.fps) as f32,
+                    VelocityUnit::Frame => 1.0,
+                };
+            let field = VelocityField {
+                grids,
+                max_time: open.abs().max(close.abs()),
+                per_frame,
+            };
+            check_motion(&f, v, &name, &density, &field)?;
+            extra.velocity = Some(field);
+        }
+    }
     let material = Material::from_desc(&v.material);
     check_world_range(&f, v, &density)?;
     let label = v.file.display().to_string();
@@ -289,6 +427,39 @@ fn load_volume(
         (None, None) => None,
     };
     Ok((vol, world_box))
+}
+
+/// Refuses a velocity so fast that the volume would move more than
+/// [`MAX_BLUR_EXTENTS`] times its own extent over the shutter (bounded
+/// cost: see there).
+fn check_motion(
+    f: &VdbFile,
+    v: &VolumeDesc,
+    name: &str,
+    density: &Grid<f32>,
+    field: &VelocityField,
+) -> Result<()> {
+    let Some(m) = crate::medium::Motion::new(field.clone(), v.transform) else {
+        return Ok(());
+    };
+    let Some((lo, hi)) = density.stored_bounds() else {
+        return Ok(());
+    };
+    let w = v.transform * density.world_from_index();
+    let [a, b] = transform_box(&w, lo.as_dvec3(), (hi + 1).as_dvec3());
+    let extent = (b - a).max_element() as f32;
+    let moved = m.max_displacement();
+    if moved.is_finite() && moved <= MAX_BLUR_EXTENTS * extent {
+        return Ok(());
+    }
+    Err(Error::grid(
+        f.path(),
+        name,
+        format!(
+            "the fastest velocity moves the volume {moved:.3e} world units over the shutter, {:.3e} times its {extent:.3e}-unit extent (at most {MAX_BLUR_EXTENTS}: the majorants, dilated by the motion, would cover that much empty space); check velocity_scale, velocity_unit and fps",
+            moved / extent
+        ),
+    ))
 }
 
 /// The camera a scene describes; `boxes` are the volumes' world boxes
@@ -418,7 +589,7 @@ impl World {
         let mut volumes = Vec::new();
         let mut boxes = Vec::new();
         for (i, v) in desc.volumes.iter().enumerate() {
-            let (vol, world_box) = load_volume(v, &mut warnings)
+            let (vol, world_box) = load_volume(v, &desc.render.motion_blur, &mut warnings)
                 .map_err(|e| e.context(format!("[[volume]] {}", i + 1)))?;
             volumes.extend(vol);
             boxes.extend(world_box);
@@ -467,11 +638,24 @@ impl World {
         };
         let r = &desc.render;
         let c = &desc.camera;
+        let media = Media::new(volumes);
+        // The shutter opens only where something moves: a frame without
+        // motion renders exactly as a still one.
+        let shutter = match r.motion_blur.shutter_interval() {
+            Some((open, close)) if media.is_moving() => Some(Shutter { open, close }),
+            Some(_) => {
+                warnings.push(
+                    "motion_blur is on, but no volume moves (no velocity grid, or a zero one): the frame renders still".into(),
+                );
+                None
+            }
+            None => None,
+        };
         Ok(World {
-            camera: make_camera(c, r.width, r.height, &boxes)?,
+            camera: make_camera(c, r.width, r.height, &boxes)?.with_shutter(shutter),
             lights,
             environment,
-            media: Media::new(volumes),
+            media,
             warnings,
             load_seconds: t0.elapsed().as_secs_f64(),
         })

@@ -788,6 +788,27 @@ fn blender_export_warns_and_refuses() {
     );
     vdbphoton::scene::SceneDesc::load(&addon).unwrap();
 
+    // Motion blur: Blender's settings, a Volume object's velocity and each
+    // domain's velocity scale, both ways (motion_export.py checks them).
+    let out = ok(
+        run(
+            Command::new(&py)
+                .arg(repo().join("tools/blender/test_export/motion_export.py"))
+                .arg(dir.join("main.blend"))
+                .arg(dir),
+            "motion_export.py",
+        ),
+        "motion_export.py",
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("MOTION_OK"));
+    for mode in ["blender", "physical"] {
+        let desc =
+            vdbphoton::scene::SceneDesc::load(dir.join(format!("motion_{mode}.toml"))).unwrap();
+        let m = desc.render.motion_blur;
+        assert!(m.enabled && m.shutter == 0.3, "{mode}: {m:?}");
+        assert_eq!(m.position, vdbphoton::scene::ShutterPosition::Start);
+    }
+
     // Unsupported things: warned about, naming object, material and node.
     let toml_path = dir.join("bad.toml");
     let out = ok(

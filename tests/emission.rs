@@ -15,6 +15,7 @@ use vdbphoton::integrator::path;
 use vdbphoton::light::{Environment, Light};
 use vdbphoton::medium::{BlackbodyFilter, ExtraGrids, Material, Media, Principled, Volume};
 use vdbphoton::phase::{henyey_greenstein, PhaseFunction};
+use vdbphoton::ray::Ray;
 use vdbphoton::sampling::{Domain, Rng};
 use vdbphoton::world::World;
 use vdbphoton::Rgb;
@@ -48,7 +49,7 @@ fn estimate(world: &World, o: Vec3, d: Vec3, n: u64, max_bounces: u32) -> (Rgb, 
     let (mut s, mut s2) = ([0.0f64; 3], [0.0f64; 3]);
     for i in 0..n {
         let mut rng = Rng::new(Domain::Test, 17, 0, i);
-        let l = path::trace(world, max_bounces, o, d, &mut rng).l;
+        let l = path::trace(world, max_bounces, &Ray::new(o, d), &mut rng).l;
         for c in 0..3 {
             s[c] += l[c] as f64;
             s2[c] += (l[c] as f64).powi(2);
@@ -452,7 +453,7 @@ fn emission_bounds_hold_at_random_points() {
                     for _ in 0..256 {
                         let pi = lo + Vec3::new(rnd(), rnd(), rnd()) * size;
                         let pw = v.world_from_index().transform_point3(pi);
-                        let e = v.eval(pw).emission.max_element();
+                        let e = v.eval(pw, 0.0).emission.max_element();
                         assert!(
                             e <= bound * (1.0 + 1e-5) + 1e-12,
                             "{filter:?}: cell {c}: emission {e} above its bound {bound}"
@@ -493,7 +494,7 @@ fn overlapping_volumes_choose_phase_functions_by_their_scattering() {
     let mut counts = [0u32; 3];
     for i in 0..n {
         let u = Rng::new(Domain::Test, 3, 3, i).next_f32();
-        let ph = media.phase_at(Vec3::new(0.2, 0.1, -0.3), u);
+        let ph = media.phase_at(Vec3::new(0.2, 0.1, -0.3), 0.0, u);
         let k = phases.iter().position(|p| *p == ph).unwrap();
         counts[k] += 1;
     }

@@ -738,7 +738,7 @@ fn tuning_follows_the_scattering_order() {
     let sun = || vec![Light::sun(Vec3::new(0.3, -0.4, 1.0), Rgb::ONE, 0.0)];
     let order = |w: &World| {
         let e = Emitters::new(w).unwrap();
-        let (_, st) = photon::trace(w, &e, 4000, 5, 0, 1024, Store::ALL);
+        let (_, st) = photon::trace(w, &e, 4000, 5, 0, 0.0, 1024, Store::ALL);
         st.order()
     };
     let black = world(vec![cloud(raw(3.0, 0.0, 0.0))], sun(), Rgb::ZERO);

@@ -3,7 +3,8 @@ use std::path::{Path, PathBuf};
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use vdbphoton::scene::{
     CameraDesc, CameraPose, EnvironmentDesc, Estimate, Integrator, Lens, LightDesc, MaterialDesc,
-    PathSeg, PhaseDesc, PhotonSettings, Principled, RenderDesc, SceneDesc, SceneError, SceneFormat,
+    MotionBlurDesc, PathSeg, PhaseDesc, PhotonSettings, Principled, RenderDesc, SceneDesc,
+    SceneError, SceneFormat, ShutterPosition,
 };
 
 const VOL: &str = "[[volume]]\nfile = \"a.vdb\"\n";
@@ -120,6 +121,13 @@ fn defaults_when_keys_are_absent() {
             exposure: 0.0,
             aovs: false,
             frames: None,
+            motion_blur: MotionBlurDesc {
+                enabled: false,
+                shutter: 0.5,
+                position: ShutterPosition::Center,
+                fps: 24.0,
+            },
+            denoise: false,
         }
     );
     assert_eq!(
@@ -815,7 +823,7 @@ fn unknown_key_in_toml_names_key_and_line() {
         toml_err(&text),
         "scene.toml:6: unknown key 'densty' in [[volume]] (expected one of: file, density_grid, \
          temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds, \
-         frame_offset, temperature_from_flame)"
+         frame_offset, temperature_from_flame, velocity_grid, velocity_scale, velocity_unit)"
     );
     let text = format!("{VOL}[volume.material]\n\ndensity = 1\nanisotropi = 0.5\n");
     let msg = toml_err(&text);
@@ -842,7 +850,7 @@ fn unknown_key_in_json_names_key_and_line() {
         err(json("{\n  \"render\": {\"width\": 8},\n  \"volume\": [\n    {\"file\": \"a\", \"densty\": 1}\n  ]\n}")),
         "scene.json:4: unknown key 'densty' in [[volume]] (expected one of: file, density_grid, \
          temperature_grid, flame_grid, color_grid, blackbody_interpolation, transform, material, bounds, \
-         frame_offset, temperature_from_flame)"
+         frame_offset, temperature_from_flame, velocity_grid, velocity_scale, velocity_unit)"
     );
     assert_eq!(
         err(json("{\"volume\": [{\"file\": \"a\"}],\n \"camera\": {\"fov\": 3}}")),

@@ -12,6 +12,7 @@ use vdbphoton::integrator::{self, path, Settings};
 use vdbphoton::light::{Environment, Light};
 use vdbphoton::medium::{ExtraGrids, MajorantGrid, Material, Media, Volume};
 use vdbphoton::phase::PhaseFunction;
+use vdbphoton::ray::Ray;
 use vdbphoton::sampling::{Domain, Rng};
 use vdbphoton::tracking::{optical_depth, sample_t_maj, transmittance};
 use vdbphoton::world::World;
@@ -111,7 +112,7 @@ fn slab_transmittance_ratio_and_delta_tracking() {
     let d = Vec3::X;
     // The box is 2 units thick along the ray.
     let expected = (-sigma_t * 2.0).map(f32::exp);
-    let tau = optical_depth(&media, o, d, 0.0, 6.0, 4096, 0.5);
+    let tau = optical_depth(&media, &Ray::new(o, d), 0.0, 6.0, 4096, 0.5);
     assert!(
         (tau - sigma_t * 2.0).abs().max_element() < 2e-3,
         "optical depth {tau}"
@@ -122,7 +123,7 @@ fn slab_transmittance_ratio_and_delta_tracking() {
         let est: Vec<f64> = (0..n)
             .map(|i| {
                 let mut rng = Rng::new(Domain::Test, 1, 0, i);
-                transmittance(&media, o, d, f32::INFINITY, &mut rng)[c] as f64
+                transmittance(&media, &Ray::new(o, d), f32::INFINITY, &mut rng)[c] as f64
             })
             .collect();
         let (m, se) = stats(&est);
@@ -134,7 +135,15 @@ fn slab_transmittance_ratio_and_delta_tracking() {
     }
     // A finite t_max stops in the middle of the slab: T = exp(-σt·1).
     let mid: Vec<f64> = (0..n)
-        .map(|i| transmittance(&media, o, d, 3.0, &mut Rng::new(Domain::Test, 2, 0, i)).x as f64)
+        .map(|i| {
+            transmittance(
+                &media,
+                &Ray::new(o, d),
+                3.0,
+                &mut Rng::new(Domain::Test, 2, 0, i),
+            )
+            .x as f64
+        })
         .collect();
     let (m, se) = stats(&mid);
     assert!(
@@ -152,7 +161,7 @@ fn slab_transmittance_ratio_and_delta_tracking() {
     let mut escaped = 0u32;
     for i in 0..n {
         let mut rng = Rng::new(Domain::Test, 3, 0, i);
-        if sample_t_maj(&grey, o, d, f32::INFINITY, &mut rng, |c, rng| {
+        if sample_t_maj(&grey, &Ray::new(o, d), f32::INFINITY, &mut rng, |c, rng| {
             rng.next_f32() >= c.medium().sigma_t().x / c.sigma_maj
         }) {
             escaped += 1;
@@ -239,23 +248,29 @@ fn majorants_bound_every_lookup_on_random_grids() {
             let target = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
             let dir = vdbphoton::sampling::sample_uniform_sphere(rng.next_vec2());
             let o = target - dir * (hi - lo).length();
-            sample_t_maj(&media, o, dir, f32::INFINITY, &mut rng, |c, _| {
-                let st = c.medium().sigma_t();
-                assert!(
-                    st.max_element() <= c.sigma_maj * (1.0 + 1e-5),
-                    "seed {seed}: sigma_t {st} above the majorant {} at {}",
-                    c.sigma_maj,
-                    c.p
-                );
-                assert!(
-                    st.min_element() >= c.sigma_c * (1.0 - 1e-5),
-                    "seed {seed}: sigma_t {st} below the minorant {} at {}",
-                    c.sigma_c,
-                    c.p
-                );
-                collisions += 1;
-                true
-            });
+            sample_t_maj(
+                &media,
+                &Ray::new(o, dir),
+                f32::INFINITY,
+                &mut rng,
+                |c, _| {
+                    let st = c.medium().sigma_t();
+                    assert!(
+                        st.max_element() <= c.sigma_maj * (1.0 + 1e-5),
+                        "seed {seed}: sigma_t {st} above the majorant {} at {}",
+                        c.sigma_maj,
+                        c.p
+                    );
+                    assert!(
+                        st.min_element() >= c.sigma_c * (1.0 - 1e-5),
+                        "seed {seed}: sigma_t {st} below the minorant {} at {}",
+                        c.sigma_c,
+                        c.p
+                    );
+                    collisions += 1;
+                    true
+                },
+            );
         }
         assert!(
             collisions > 1000,
@@ -339,21 +354,27 @@ fn far_apart_bricks_get_coarser_cells_that_still_bound() {
             Vec3::splat(20000.0) + Vec3::new(jitter.z, jitter.x, jitter.y),
         );
         let (o, d) = if i % 2 == 0 { (a, b - a) } else { (b, a - b) };
-        sample_t_maj(&media, o, d.normalize(), d.length(), &mut rng, |c, _| {
-            let st = c.medium().sigma_t();
-            assert!(
-                st.max_element() <= c.sigma_maj * (1.0 + 1e-5),
-                "above the majorant at {}",
-                c.p
-            );
-            assert!(
-                st.min_element() >= c.sigma_c * (1.0 - 1e-5),
-                "below the minorant at {}",
-                c.p
-            );
-            collisions += 1;
-            true
-        });
+        sample_t_maj(
+            &media,
+            &Ray::new(o, d.normalize()),
+            d.length(),
+            &mut rng,
+            |c, _| {
+                let st = c.medium().sigma_t();
+                assert!(
+                    st.max_element() <= c.sigma_maj * (1.0 + 1e-5),
+                    "above the majorant at {}",
+                    c.p
+                );
+                assert!(
+                    st.min_element() >= c.sigma_c * (1.0 - 1e-5),
+                    "below the minorant at {}",
+                    c.p
+                );
+                collisions += 1;
+                true
+            },
+        );
     }
     assert!(
         collisions > 200,
@@ -456,8 +477,7 @@ fn white_furnace() {
                 let r = path::trace(
                     &world,
                     settings.max_bounces,
-                    world.camera.position(),
-                    d,
+                    &Ray::new(world.camera.position(), d),
                     &mut rng,
                 );
                 for (c, vc) in v.iter_mut().enumerate() {
@@ -606,7 +626,7 @@ fn overlapping_volumes_add_their_extinction() {
     let st1 = Rgb::new(0.5, 0.7, 0.9);
     let st2 = Rgb::new(0.7, 0.3, 0.2);
     let want = (-(st1 * 2.0 + st2 * 2.0)).map(f32::exp);
-    let tau = optical_depth(&media, o, Vec3::X, 0.0, 8.0, 8192, 0.5);
+    let tau = optical_depth(&media, &Ray::new(o, Vec3::X), 0.0, 8.0, 8192, 0.5);
     assert!(
         (tau - (st1 + st2) * 2.0).abs().max_element() < 3e-3,
         "optical depth {tau}"
@@ -617,8 +637,7 @@ fn overlapping_volumes_add_their_extinction() {
             .map(|i| {
                 transmittance(
                     &media,
-                    o,
-                    Vec3::X,
+                    &Ray::new(o, Vec3::X),
                     f32::INFINITY,
                     &mut Rng::new(Domain::Test, 8, 0, i),
                 )[c] as f64
@@ -632,15 +651,16 @@ fn overlapping_volumes_add_their_extinction() {
         );
     }
     // In the overlap the coefficients are the sums; outside it, one box's.
-    let both = media.eval(Vec3::new(0.7, 0.5, 0.0));
+    let both = media.eval(Vec3::new(0.7, 0.5, 0.0), 0.0);
     assert!((both.sigma_s - Rgb::new(0.9, 0.7, 0.8)).abs().max_element() < 1e-5);
-    let one = media.eval(Vec3::new(-0.8, 0.0, 0.0));
+    let one = media.eval(Vec3::new(-0.8, 0.0, 0.0), 0.0);
     assert!((one.sigma_s - Rgb::new(0.3, 0.5, 0.7)).abs().max_element() < 1e-5);
     // The phase function in the overlap is chosen in proportion to σs.
     let mut hg = 0;
     for i in 0..10_000 {
         if media.phase_at(
             Vec3::new(0.7, 0.5, 0.0),
+            0.0,
             Rng::new(Domain::Test, 1, 1, i).next_f32(),
         ) != PhaseFunction::Isotropic
         {
@@ -674,7 +694,7 @@ fn residual_ratio_tracking_matches_quadrature_in_a_heterogeneous_cloud() {
         let d = vdbphoton::sampling::sample_uniform_sphere(rng.next_vec2());
         let o = target - d * (hi - lo).length();
         let t1 = 2.0 * (hi - lo).length();
-        let tau = optical_depth(&with, o, d, 0.0, t1, 20_000, 0.5);
+        let tau = optical_depth(&with, &Ray::new(o, d), 0.0, t1, 20_000, 0.5);
         let want = (-tau).map(f32::exp);
         with.for_each_segment(o, d, 0.0, t1, |s| {
             controlled += (s.min_density > 0.0) as u32;
@@ -685,7 +705,7 @@ fn residual_ratio_tracking_matches_quadrature_in_a_heterogeneous_cloud() {
                 let est: Vec<f64> = (0..20_000)
                     .map(|i| {
                         let mut r = Rng::new(Domain::Test, 22, ray, i);
-                        transmittance(media, o, d, f32::INFINITY, &mut r)[c] as f64
+                        transmittance(media, &Ray::new(o, d), f32::INFINITY, &mut r)[c] as f64
                     })
                     .collect();
                 let (m, se) = stats(&est);
@@ -733,8 +753,7 @@ fn chromatic_medium_equals_its_grey_channels() {
             let r = path::trace(
                 &world,
                 settings.max_bounces,
-                world.camera.position(),
-                d,
+                &Ray::new(world.camera.position(), d),
                 &mut rng,
             );
             for (c, vc) in v.iter_mut().enumerate() {

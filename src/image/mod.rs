@@ -369,6 +369,12 @@ impl Image {
         self.add_layer(name, &["R", "G", "B"])
     }
 
+    /// Takes the AOV layer named `name` out of the image.
+    pub fn remove_layer(&mut self, name: &str) -> Option<AovLayer> {
+        let i = self.layers.iter().position(|l| l.name == name)?;
+        Some(self.layers.remove(i))
+    }
+
     /// All AOV layers, in the order they were added.
     pub fn layers(&self) -> &[AovLayer] {
         &self.layers

@@ -21,14 +21,16 @@
 //! here, give it a name in `scene::Integrator`, and build it in
 //! `crate::render::make_integrator`.
 
+pub mod albedo;
 pub mod path;
 pub mod photon;
 
 use crate::film::{Film, Region};
+use crate::ray::Ray;
 use crate::sampling::{mix64, Domain, Rng};
 use crate::world::World;
 use crate::Rgb;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -50,6 +52,9 @@ pub struct SampleResult {
     /// Transmittance along the camera ray (mean over channels; alpha is 1
     /// minus it).
     pub transmittance: f32,
+    /// The denoising albedo along the camera ray (`crate::denoise`), when
+    /// the integrator was asked for it ([`Integrator::enable_albedo`]).
+    pub albedo: Rgb,
 }
 
 /// The key of a camera sample's random streams: (seed, pixel, sample
@@ -79,9 +84,36 @@ pub trait Integrator: Sync {
     }
     /// Prepares pass `pass` (0-based) before its camera samples.
     fn begin_pass(&mut self, _world: &World, _pass: u32) {}
-    /// The radiance along the camera ray `o + t d` (`d` unit). `rng` is the
-    /// sample's camera stream, already used for the position in the pixel.
-    fn li(&self, world: &World, o: Vec3, d: Vec3, rng: &mut Rng, key: SampleKey) -> SampleResult;
+    /// From now on, fill [`SampleResult::albedo`] (for the denoiser; an
+    /// integrator that computes it anyway may always fill it).
+    fn enable_albedo(&mut self, _world: &World) {}
+    /// The time of a camera sample within the camera's shutter (frames
+    /// from the frame; 0 without motion blur). By default each sample of a
+    /// pixel has its own, stratified over the shutter: the base-2 radical
+    /// inverse of the sample's index, rotated by a number of the pixel's
+    /// own ([`Domain::Time`], a stream apart, so still frames draw what
+    /// they always drew), so that any 2^m samples of a pixel from the
+    /// first cover the shutter evenly, as Cycles' low-discrepancy time
+    /// does; a moving plume's noise at 256 spp fell by a third against
+    /// independent times. An integrator whose pass shares something that
+    /// depends on time (a photon map) gives every sample of a pass the
+    /// pass's time.
+    fn sample_time(&self, world: &World, key: SampleKey) -> f32 {
+        world.camera.shutter().map_or(0.0, |s| {
+            let offset = SampleKey {
+                index: u64::MAX,
+                ..key
+            }
+            .rng(Domain::Time)
+            .next_f32();
+            let u = crate::sampling::radical_inverse_2(key.index as u32) + offset;
+            s.time(u - u.floor())
+        })
+    }
+    /// The radiance along the camera ray (`ray.d` unit, at the sample's
+    /// time). `rng` is the sample's camera stream, already used for the
+    /// position in the pixel.
+    fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, key: SampleKey) -> SampleResult;
     /// Settings and work so far, for the image header (`vdbphoton/...`).
     fn attributes(&self) -> Vec<(String, String)> {
         Vec::new()
@@ -123,9 +155,12 @@ pub fn camera_sample(
     };
     let mut rng = key.rng(Domain::Camera);
     let film = Vec2::new(x as f32, y as f32) + rng.next_vec2();
-    let o = world.camera.position();
-    let d = world.camera.direction(film);
-    integrator.li(world, o, d, &mut rng, key)
+    let ray = Ray::at_time(
+        world.camera.position(),
+        world.camera.direction(film),
+        integrator.sample_time(world, key),
+    );
+    integrator.li(world, &ray, &mut rng, key)
 }
 
 /// The tiles of `region`, in a fixed shuffled order: the share of tiles

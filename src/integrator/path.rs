@@ -25,7 +25,7 @@
 
 use super::{Integrator, SampleKey, SampleResult};
 use crate::light::Light;
-use crate::medium::Media;
+use crate::ray::Ray;
 use crate::sampling::{power_heuristic, roulette, Domain, Rng};
 use crate::tracking::{self, sample_t_maj};
 use crate::world::World;
@@ -38,11 +38,16 @@ use glam::Vec3;
 pub struct PathIntegrator {
     /// Real scattering events at most along a path.
     pub max_bounces: u32,
+    /// The march step of the denoising albedo, when it is asked for.
+    albedo_step: Option<f32>,
 }
 
 impl PathIntegrator {
     pub fn new(max_bounces: u32) -> Self {
-        Self { max_bounces }
+        Self {
+            max_bounces,
+            albedo_step: None,
+        }
     }
 }
 
@@ -51,13 +56,22 @@ impl Integrator for PathIntegrator {
         "path"
     }
 
-    fn li(&self, world: &World, o: Vec3, d: Vec3, rng: &mut Rng, key: SampleKey) -> SampleResult {
-        let mut r = trace(world, self.max_bounces, o, d, rng);
+    fn enable_albedo(&mut self, world: &World) {
+        self.albedo_step = Some(super::albedo::step(world));
+    }
+
+    fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, key: SampleKey) -> SampleResult {
+        let mut r = trace(world, self.max_bounces, ray, rng);
         // Alpha: ratio-tracked transmittance of the camera ray, from a
         // stream of its own so it does not perturb the path.
         let mut rng_t = key.rng(Domain::Alpha);
-        let tr = tracking::transmittance(&world.media, o, d, f32::INFINITY, &mut rng_t);
+        let tr = tracking::transmittance(&world.media, ray, f32::INFINITY, &mut rng_t);
         r.transmittance = (tr.x + tr.y + tr.z) / 3.0;
+        // The denoising albedo: a march of its own (the path's collisions
+        // would give a guide as noisy as the image).
+        if let Some(step) = self.albedo_step {
+            r.albedo = super::albedo::along(world, ray, step, &mut key.rng(Domain::Albedo));
+        }
         r
     }
 
@@ -78,21 +92,23 @@ const RR_DEPTH: u32 = 3;
 /// variance gain of weighting (relMSE 2.17e-4 against 3.30e-4 with 1).
 pub const RR_THRESHOLD: f32 = 0.25;
 
-/// Light arriving at `p` along each light's sample, times the phase
-/// function and the transmittance, for NEE from a scattering event. With
+/// Light arriving at `p` (at `time`) along each light's sample, times the
+/// phase function and the transmittance, for NEE from a scattering event.
+/// With
 /// `mis`, lights a phase-sampled ray can also hit are weighted by the power
 /// heuristic against phase sampling (the path tracer); without, the light
 /// sample is the whole estimate (the photon integrator's marcher, which
 /// samples no direction).
 pub(super) fn direct_light(
     world: &World,
-    media: &Media,
     p: Vec3,
+    time: f32,
     wo: Vec3,
     phase: &crate::phase::PhaseFunction,
     mis: bool,
     rng: &mut Rng,
 ) -> Rgb {
+    let media = &world.media;
     let mut l = Rgb::ZERO;
     for light in &world.lights {
         let u = rng.next_vec2();
@@ -106,7 +122,7 @@ pub(super) fn direct_light(
         if f <= 0.0 {
             continue;
         }
-        let tr = tracking::transmittance(media, p, ls.wi, ls.dist, rng);
+        let tr = tracking::transmittance(media, &Ray::at_time(p, ls.wi, time), ls.dist, rng);
         if tr.max_element() <= 0.0 {
             continue;
         }
@@ -122,7 +138,12 @@ pub(super) fn direct_light(
             if pdf > 0.0 && le.max_element() > 0.0 {
                 let f = phase.eval(wo, wi);
                 if f > 0.0 {
-                    let tr = tracking::transmittance(media, p, wi, f32::INFINITY, rng);
+                    let tr = tracking::transmittance(
+                        media,
+                        &Ray::at_time(p, wi, time),
+                        f32::INFINITY,
+                        rng,
+                    );
                     let w = if mis {
                         power_heuristic(1, pdf, 1, phase.pdf(wo, wi))
                     } else {
@@ -156,15 +177,16 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32) -> Rgb {
     l
 }
 
-/// One camera path from `o` in direction `d`, with at most `max_bounces`
-/// real scattering events (`transmittance` is left at 0: see
+/// One camera path along `ray` (every segment at its time), with at most
+/// `max_bounces` real scattering events (`transmittance` is left at 0: see
 /// [`PathIntegrator::li`]).
-pub fn trace(world: &World, max_bounces: u32, o: Vec3, d: Vec3, rng: &mut Rng) -> SampleResult {
+pub fn trace(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> SampleResult {
     let media = &world.media;
+    let time = ray.time;
     let mut res = SampleResult::default();
     let mut beta = Rgb::ONE;
-    let mut ray_o = o;
-    let mut ray_d = d;
+    let mut ray_o = ray.o;
+    let mut ray_d = ray.d;
     let mut depth = 0u32; // real scattering events so far
     let mut last_phase_pdf = 0.0f32;
     loop {
@@ -173,7 +195,8 @@ pub fn trace(world: &World, max_bounces: u32, o: Vec3, d: Vec3, rng: &mut Rng) -
         let mut new_dir = ray_d;
         let mut new_o = ray_o;
         let mut new_pdf = 0.0;
-        let left = sample_t_maj(media, ray_o, ray_d, f32::INFINITY, rng, |c, rng| {
+        let segment = Ray::at_time(ray_o, ray_d, time);
+        let left = sample_t_maj(media, &segment, f32::INFINITY, rng, |c, rng| {
             let Some(step) = tracking::collide(c, beta, rng) else {
                 terminated = true;
                 return false;
@@ -196,7 +219,7 @@ pub fn trace(world: &World, max_bounces: u32, o: Vec3, d: Vec3, rng: &mut Rng) -
             }
             let wo = -ray_d;
             let phase = step.phase;
-            let ld = beta * direct_light(world, media, c.p, wo, &phase, true, rng);
+            let ld = beta * direct_light(world, c.p, time, wo, &phase, true, rng);
             res.l += ld;
             if depth == 1 {
                 res.direct += ld;

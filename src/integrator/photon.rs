@@ -42,7 +42,8 @@ use crate::photon::emitter::Emitters;
 use crate::photon::importance::Importance;
 use crate::photon::map::{density_radii, median, PointMap};
 use crate::photon::{self, Photon};
-use crate::sampling::{roulette, Rng};
+use crate::ray::Ray;
+use crate::sampling::{radical_inverse_2, roulette, Domain, Rng};
 use crate::world::World;
 use crate::Rgb;
 use glam::Vec3;
@@ -292,6 +293,26 @@ pub struct PhotonIntegrator {
     /// the pilot).
     tuning: Tuning,
     totals: PhotonTotals,
+    /// The time of this pass's photons and camera rays (motion blur; 0 for
+    /// a still frame): see [`pass_time`].
+    time: f32,
+}
+
+/// The time within `world`'s shutter at which pass `pass` renders
+/// everything: its photons and every camera ray. A photon map is the light
+/// of one instant, so a camera ray must gather from a map of its own time
+/// (else the moving medium's σs and the map's light disagree: a biased
+/// estimate); the mean over passes converges to the blurred image.
+/// Passes are stratified over the shutter by the base-2 radical inverse
+/// of the pass, rotated by the seed (Cranley–Patterson), so any 2^m
+/// passes from the first cover it evenly.
+pub fn pass_time(world: &World, seed: u64, pass: u32) -> f32 {
+    let Some(shutter) = world.camera.shutter() else {
+        return 0.0;
+    };
+    let offset = Rng::new(Domain::Time, seed, u64::MAX, 0).next_f32();
+    let u = radical_inverse_2(pass) + offset;
+    shutter.time(u - u.floor())
 }
 
 impl PhotonIntegrator {
@@ -326,6 +347,7 @@ impl PhotonIntegrator {
             order: 0.0,
             tuning: Tuning::of(&settings, 0.0),
             totals: PhotonTotals::default(),
+            time: 0.0,
         })
     }
 
@@ -381,6 +403,8 @@ impl Integrator for PhotonIntegrator {
 
     fn begin_pass(&mut self, world: &World, pass: u32) {
         self.map = None;
+        self.time = pass_time(world, self.seed, pass);
+        let time = self.time;
         let Some(emitters) = &self.emitters else {
             return;
         };
@@ -402,6 +426,7 @@ impl Integrator for PhotonIntegrator {
                     pilot,
                     self.seed,
                     u32::MAX,
+                    time,
                     self.max_bounces,
                     none,
                 );
@@ -411,8 +436,16 @@ impl Integrator for PhotonIntegrator {
             }
         };
         let store = photon::Store { scale, importance };
-        let (photons, st) =
-            photon::trace(world, emitters, n, self.seed, pass, self.max_bounces, store);
+        let (photons, st) = photon::trace(
+            world,
+            emitters,
+            n,
+            self.seed,
+            pass,
+            time,
+            self.max_bounces,
+            store,
+        );
         self.store = Some(self.store_scale(&st));
         self.totals.passes += 1;
         self.totals.emitted += st.emitted;
@@ -438,11 +471,16 @@ impl Integrator for PhotonIntegrator {
         };
     }
 
-    fn li(&self, world: &World, o: Vec3, d: Vec3, rng: &mut Rng, _key: SampleKey) -> SampleResult {
+    /// Every camera ray of a pass at the pass's time ([`pass_time`]).
+    fn sample_time(&self, _world: &World, _key: SampleKey) -> f32 {
+        self.time
+    }
+
+    fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, _key: SampleKey) -> SampleResult {
         STEPS.with(|s| {
             let mut steps = s.borrow_mut();
             steps.clear();
-            self.march(world, o, d, rng, &mut steps)
+            self.march(world, ray, rng, &mut steps)
         })
     }
 
@@ -478,11 +516,11 @@ impl PhotonIntegrator {
     fn march(
         &self,
         world: &World,
-        o: Vec3,
-        d: Vec3,
+        ray: &Ray,
         rng: &mut Rng,
         steps: &mut Vec<MarchStep>,
     ) -> SampleResult {
+        let Ray { o, d, time } = *ray;
         let media = &world.media;
         let mut res = SampleResult::default();
         let mut tr = Rgb::ONE;
@@ -504,7 +542,7 @@ impl PhotonIntegrator {
             for i in 0..n {
                 let t0 = seg.t0 + i as f32 * dt;
                 let p = o + d * (t0 + jitter * dt);
-                let m = media.eval(p);
+                let m = media.eval(p, time);
                 let st = m.sigma_t();
                 let att = (-st * dt).map(f32::exp);
                 let w = Rgb::select(
@@ -552,8 +590,8 @@ impl PhotonIntegrator {
                     k += 1;
                     let prob = c / total;
                     if prob > 0.0 {
-                        let phase = media.phase_at(s.p, rng.next_f32());
-                        let ls = direct_light(world, media, s.p, wo, &phase, false, rng);
+                        let phase = media.phase_at(s.p, time, rng.next_f32());
+                        let ls = direct_light(world, s.p, time, wo, &phase, false, rng);
                         res.direct += s.w * s.sigma_s * ls / (prob * m as f32);
                     }
                 }
@@ -605,8 +643,12 @@ impl PhotonIntegrator {
             None => {}
         }
         res.l = res.direct + res.indirect + res.emission;
+        // The denoising albedo (`super::albedo`), from the march's steps.
+        res.albedo = steps.iter().map(|s| s.w * s.sigma_s).sum::<Rgb>();
         if !ended {
-            res.l += tr * world.environment.le(d);
+            let le = world.environment.le(d);
+            res.l += tr * le;
+            res.albedo += tr * le.min(Rgb::ONE);
             res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
         }
         res

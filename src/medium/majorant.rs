@@ -71,16 +71,24 @@ impl MajorantGrid {
     /// Cells that reach outside the stored voxels see the background, which
     /// the minorant includes.
     pub fn build(density: &Grid<f32>, cell: i32) -> Option<Self> {
-        Self::build_emissive(density, cell, None)
+        Self::build_emissive(density, cell, None, Vec3::ZERO)
     }
 
     /// [`Self::build`] over the union of the density's stored voxels and the
     /// emitting voxels of `emission`, with an emission bound per cell.
     /// `None` when both are empty.
+    ///
+    /// `motion` is how far (index units, per axis) a moving volume's
+    /// lookups may be displaced over the shutter (`crate::medium::motion`):
+    /// a lookup at `p` then reads the grids anywhere within that box around
+    /// `p`, so each cell's bounds are those of its neighbours within it
+    /// (a max and a min filter over the cells), and the grid reaches that
+    /// much further on every side. Zero for a still volume.
     pub fn build_emissive(
         density: &Grid<f32>,
         cell: i32,
         emission: Option<EmissionBounds>,
+        motion: Vec3,
     ) -> Option<Self> {
         let stored = density.stored_bounds();
         let emitting = emission.as_ref().and_then(|e| e.voxels);
@@ -89,8 +97,10 @@ impl MajorantGrid {
             (Some(x), None) | (None, Some(x)) => x,
             (None, None) => return None,
         };
-        let lo = lo - 1;
-        let hi = hi + 1;
+        let motion = motion.max(Vec3::ZERO);
+        let pad = motion.ceil().min(Vec3::splat(1e9)).as_ivec3();
+        let lo = lo - 1 - pad;
+        let hi = hi + 1 + pad;
         // A sparse grid (two voxels 20,000 apart) or emitting grids far
         // from the density would need billions of cells of 8 voxels:
         // coarser cells bound the same lookups, with more null collisions
@@ -121,38 +131,53 @@ impl MajorantGrid {
             cell = cell.saturating_mul(2);
         };
         let n = (res.x as usize) * (res.y as usize) * (res.z as usize);
-        let mut range = vec![[0.0f32; 2]; n];
-        for z in 0..res.z {
-            for y in 0..res.y {
-                for x in 0..res.x {
-                    let c0 = origin + IVec3::new(x, y, z) * cell;
-                    let [a, b] = if cell == 8 {
-                        density.block_lookup_range(c0)
-                    } else {
-                        density.range_in_box(c0, c0 + cell).unwrap_or([0.0, 0.0])
-                    };
-                    range[((z * res.y + y) * res.x + x) as usize] = [a.max(0.0), b.max(0.0)];
+        let (range, emission) = if motion == Vec3::ZERO {
+            cell_bounds(density, emission.as_ref(), origin, res, cell)
+        } else {
+            // A moving volume: a lookup in a cell may read anything within
+            // `motion` of it. The bounds are dilated on cells finer than
+            // the grid's, then gathered into its cells: a displacement of
+            // 1.4 voxels widens an 8-voxel cell's window to 12 voxels
+            // rather than to three cells (24).
+            let mut fine = cell;
+            for f in [cell / 4, cell / 2] {
+                let r = (cell / f.max(1)) as i64;
+                if f >= 1 && cell % f == 0 && n as i64 * r * r * r <= budget {
+                    fine = f;
+                    break;
                 }
             }
-        }
-        let emission = match &emission {
-            None => Vec::new(),
-            Some(e) => {
-                let mut v = Vec::with_capacity(n);
-                for z in 0..res.z {
-                    for y in 0..res.y {
-                        for x in 0..res.x {
-                            let c0 = origin + IVec3::new(x, y, z) * cell;
-                            v.push((e.bound)(c0, cell).max(0.0));
-                        }
-                    }
-                }
-                if v.iter().all(|&b| b <= 0.0) {
-                    Vec::new()
-                } else {
-                    v
+            let ratio = cell / fine;
+            let fres = res * ratio;
+            let (mut range, mut emission) =
+                cell_bounds(density, emission.as_ref(), origin, fres, fine);
+            // Within `k` fine cells: a displaced point lies in
+            // (c0 − motion, c0 + fine + motion), and motion ≤ k·fine.
+            let k = (motion / fine as f32)
+                .ceil()
+                .min(Vec3::splat(1e9))
+                .as_ivec3();
+            let mut upper: Vec<f32> = range.iter().map(|r| r[1]).collect();
+            let mut lower: Vec<f32> = range.iter().map(|r| r[0]).collect();
+            // Beyond the grid every lookup is background: 0 (densities
+            // below 0 count as 0).
+            dilate(&mut upper, fres, k, f32::max);
+            dilate(&mut lower, fres, k, f32::min);
+            if !emission.is_empty() {
+                dilate(&mut emission, fres, k, f32::max);
+            }
+            for ((r, hi), lo) in range.iter_mut().zip(upper).zip(lower) {
+                *r = [lo, hi];
+            }
+            if ratio > 1 {
+                range = gather(&range, fres, ratio, [f32::INFINITY, 0.0], |a, b| {
+                    [a[0].min(b[0]), a[1].max(b[1])]
+                });
+                if !emission.is_empty() {
+                    emission = gather(&emission, fres, ratio, 0.0, f32::max);
                 }
             }
+            (range, emission)
         };
         Some(Self {
             origin: origin.as_vec3(),
@@ -327,6 +352,127 @@ impl MajorantGrid {
     }
 }
 
+/// The `[min, max]` density bounds of each cell of a `res` grid of cells of
+/// `cell` voxels from `origin` (x fastest), and the emission bounds when
+/// `emission` is given (empty when nothing emits).
+fn cell_bounds(
+    density: &Grid<f32>,
+    emission: Option<&EmissionBounds>,
+    origin: IVec3,
+    res: IVec3,
+    cell: i32,
+) -> (Vec<[f32; 2]>, Vec<f32>) {
+    let n = (res.x as usize) * (res.y as usize) * (res.z as usize);
+    let mut range = Vec::with_capacity(n);
+    let mut bound = Vec::with_capacity(if emission.is_some() { n } else { 0 });
+    for z in 0..res.z {
+        for y in 0..res.y {
+            for x in 0..res.x {
+                let c0 = origin + IVec3::new(x, y, z) * cell;
+                let [a, b] = if cell == 8 {
+                    density.block_lookup_range(c0)
+                } else {
+                    density.range_in_box(c0, c0 + cell).unwrap_or([0.0, 0.0])
+                };
+                range.push([a.max(0.0), b.max(0.0)]);
+                if let Some(e) = emission {
+                    bound.push((e.bound)(c0, cell).max(0.0));
+                }
+            }
+        }
+    }
+    if bound.iter().all(|&b| b <= 0.0) {
+        bound.clear();
+    }
+    (range, bound)
+}
+
+/// The `res / ratio` grid whose each value is `op` over the `ratio`³ values
+/// of the `res` grid `v` it covers (x fastest).
+fn gather<T: Copy>(v: &[T], res: IVec3, ratio: i32, init: T, op: impl Fn(T, T) -> T) -> Vec<T> {
+    let c = res / ratio;
+    let mut out = vec![init; (c.x as usize) * (c.y as usize) * (c.z as usize)];
+    for z in 0..res.z {
+        for y in 0..res.y {
+            for x in 0..res.x {
+                let o = (((z / ratio) * c.y + y / ratio) * c.x + x / ratio) as usize;
+                out[o] = op(out[o], v[((z * res.y + y) * res.x + x) as usize]);
+            }
+        }
+    }
+    out
+}
+
+/// Replaces each value of the `res` grid `v` (x fastest) by `op` over the
+/// values within `k` cells along each axis, counting cells beyond the grid
+/// as 0: a separable max (or min) filter, each line by van Herk and
+/// Gil-Werman's algorithm (three `op`s a cell whatever `k`).
+fn dilate(v: &mut [f32], res: IVec3, k: IVec3, op: fn(f32, f32) -> f32) {
+    let dims = [res.x as usize, res.y as usize, res.z as usize];
+    let strides = [1, dims[0], dims[0] * dims[1]];
+    for axis in 0..3 {
+        let r = k[axis].max(0) as usize;
+        if r == 0 {
+            continue;
+        }
+        let n = dims[axis];
+        let stride = strides[axis];
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+        let mut line = vec![0.0f32; n];
+        let mut out = vec![0.0f32; n];
+        let mut g = vec![0.0f32; n + 2 * r];
+        let mut h = vec![0.0f32; n + 2 * r];
+        for j in 0..dims[b] {
+            for i in 0..dims[a] {
+                let base = i * strides[a] + j * strides[b];
+                for (t, x) in line.iter_mut().enumerate() {
+                    *x = v[base + t * stride];
+                }
+                filter_line(&line, r, op, &mut g, &mut h, &mut out);
+                for (t, x) in out.iter().enumerate() {
+                    v[base + t * stride] = *x;
+                }
+            }
+        }
+    }
+}
+
+/// `out[i] = op(src[i − r ..= i + r])`, values beyond `src` being 0; `g`
+/// and `h` are scratch of `src.len() + 2r`.
+fn filter_line(
+    src: &[f32],
+    r: usize,
+    op: fn(f32, f32) -> f32,
+    g: &mut [f32],
+    h: &mut [f32],
+    out: &mut [f32],
+) {
+    let n = src.len();
+    let w = 2 * r + 1;
+    let m = n + 2 * r;
+    let at = |j: usize| if j >= r && j < r + n { src[j - r] } else { 0.0 };
+    // g: running op from the start of each block of w; h: from its end.
+    for j in 0..m {
+        g[j] = if j % w == 0 {
+            at(j)
+        } else {
+            op(g[j - 1], at(j))
+        };
+    }
+    for j in (0..m).rev() {
+        h[j] = if j == m - 1 || (j + 1) % w == 0 {
+            at(j)
+        } else {
+            op(h[j + 1], at(j))
+        };
+    }
+    // The window [i, i + w − 1] of the padded line spans at most two
+    // blocks: the end of i's and the start of the next.
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = op(h[i], g[i + w - 1]);
+    }
+}
+
 /// One stretch of a ray with constant bounds of the density (of σt, once
 /// `Media` has scaled them) and of the emission.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -394,5 +540,60 @@ impl Iterator for Dda<'_> {
             self.t = f32::INFINITY;
         }
         Some(seg)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dilation_is_the_max_and_min_over_the_window() {
+        let res = IVec3::new(7, 5, 4);
+        let n = (res.x * res.y * res.z) as usize;
+        let v: Vec<f32> = (0..n).map(|i| ((i * 37 % 23) as f32) - 5.0).collect();
+        let at = |p: IVec3| {
+            if p.cmplt(IVec3::ZERO).any() || p.cmpge(res).any() {
+                0.0
+            } else {
+                v[((p.z * res.y + p.y) * res.x + p.x) as usize]
+            }
+        };
+        for k in [
+            IVec3::new(1, 2, 0),
+            IVec3::new(3, 1, 1),
+            IVec3::new(9, 0, 2),
+        ] {
+            for (op, name) in [(f32::max as fn(f32, f32) -> f32, "max"), (f32::min, "min")] {
+                let mut d = v.clone();
+                dilate(&mut d, res, k, op);
+                for z in 0..res.z {
+                    for y in 0..res.y {
+                        for x in 0..res.x {
+                            let p = IVec3::new(x, y, z);
+                            let mut want = at(p);
+                            for dz in -k.z..=k.z {
+                                for dy in -k.y..=k.y {
+                                    for dx in -k.x..=k.x {
+                                        want = op(want, at(p + IVec3::new(dx, dy, dz)));
+                                    }
+                                }
+                            }
+                            let got = d[((z * res.y + y) * res.x + x) as usize];
+                            assert_eq!(got, want, "{name} k {k} at {p}");
+                        }
+                    }
+                }
+            }
+        }
+        let g = gather(&v, IVec3::new(6, 4, 4), 2, f32::NEG_INFINITY, f32::max);
+        assert_eq!(g.len(), 3 * 2 * 2);
+        assert_eq!(
+            g[0],
+            [0, 1, 6, 7, 24, 25, 30, 31]
+                .map(|i| v[i])
+                .into_iter()
+                .fold(f32::NEG_INFINITY, f32::max)
+        );
     }
 }

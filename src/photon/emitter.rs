@@ -15,6 +15,7 @@
 //! others' emission too (the sum over the volumes at x would count the
 //! overlap once per volume).
 
+use crate::camera::Shutter;
 use crate::light::{BoundingSphere, EmittedRay};
 use crate::medium::Media;
 use crate::sampling::{self, Distribution1D, Rng};
@@ -89,7 +90,7 @@ impl Emitters {
                 power.push(p);
             }
         }
-        let (cells, weights) = emissive_cells(&world.media);
+        let (cells, weights) = emissive_cells(&world.media, world.camera.shutter());
         let pick_cell = if weights.iter().any(|&w| w > 0.0) {
             let total: f32 = weights.iter().sum();
             sources.push(Source::Media);
@@ -122,10 +123,11 @@ impl Emitters {
         self.power.iter().copied().sum()
     }
 
-    /// Samples a photon: its ray and its power divided by the probability of
+    /// Samples a photon at `time` (frames from the frame: where moving
+    /// volumes emit): its ray and its power divided by the probability of
     /// the whole sample (source, position, direction). Divide by the number
     /// of photons emitted for the power each one carries.
-    pub fn sample(&self, world: &World, rng: &mut Rng) -> Option<Emission> {
+    pub fn sample(&self, world: &World, time: f32, rng: &mut Rng) -> Option<Emission> {
         let (_, p_source, k) = self.pick.sample_continuous(rng.next_f32());
         let p_source = p_source / self.pick.count() as f32;
         if p_source <= 0.0 {
@@ -135,7 +137,7 @@ impl Emitters {
         let (ray, from_media) = match self.sources[k] {
             Source::Light(i) => (world.lights[i].sample_le(self.bounds, u, v)?, false),
             Source::Environment => (world.environment.sample_le(self.bounds, u, v)?, false),
-            Source::Media => (self.sample_media(&world.media, u, v, rng)?, true),
+            Source::Media => (self.sample_media(&world.media, time, u, v, rng)?, true),
         };
         Some(Emission {
             ray: EmittedRay {
@@ -149,6 +151,7 @@ impl Emitters {
     fn sample_media(
         &self,
         media: &Media,
+        time: f32,
         u: glam::Vec2,
         v: glam::Vec2,
         rng: &mut Rng,
@@ -161,8 +164,11 @@ impl Emitters {
         let pi = c.lo + Vec3::new(u.x, u.y, v.x) * c.size;
         let p = vol.world_from_index().transform_point3(pi);
         // This volume's emission only, as the cell's weight (see the module
-        // docs): `media.eval` would add the overlapping volumes' too.
-        let e = vol.eval(p).emission;
+        // docs): `media.eval` would add the overlapping volumes' too. The
+        // cells cover a moving volume's emission over the whole shutter
+        // (their bounds are dilated by its motion), so sampling them and
+        // weighting by the emission at `time` is unbiased.
+        let e = vol.eval(p, time).emission;
         if e.max_element() <= 0.0 || p_cell <= 0.0 {
             return None;
         }
@@ -177,8 +183,30 @@ impl Emitters {
 
 /// The emissive cells of every volume and their weights (emitted power
 /// estimate per cell: mean emission at 8 stratified points × world volume,
-/// at least a twentieth of the bound × volume).
-fn emissive_cells(media: &Media) -> (Vec<EmissiveCell>, Vec<f32>) {
+/// at least a twentieth of the bound × volume: the floor keeps every cell
+/// that may emit sampled, so the estimate stays unbiased where the points
+/// miss its emission).
+///
+/// With a shutter (a moving volume) the mean is over 27 points and four
+/// times spread over the shutter, and the floor a five-hundredth of the
+/// bound: a moving volume's cells and their bounds are dilated by its
+/// motion, so around the emitting cells lies a shell of cells that may
+/// emit at some time, each with a neighbour's bound; a twentieth of it
+/// spent most photons where nothing emitted at the pass's time. On the
+/// Blender smoke frame with motion blur the map kept 700 photons a pass
+/// (2,800 still) and the image was 2.6 % darker than the path tracer's at
+/// 64 passes, 1.5 % at 512; with this floor it keeps about 3,500 and is
+/// 0.4 % darker at 512 passes, as the still frame is.
+fn emissive_cells(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveCell>, Vec<f32>) {
+    let (times, side, floor): (Vec<f32>, usize, f32) = match shutter {
+        Some(s) => (
+            (0..4).map(|i| s.time((i as f32 + 0.5) / 4.0)).collect(),
+            3,
+            0.002,
+        ),
+        None => (vec![0.0], 2, 0.05),
+    };
+    let inv_side = 1.0 / side as f32;
     let mut cells = Vec::new();
     let mut weights = Vec::new();
     for (vi, v) in media.volumes().iter().enumerate() {
@@ -200,23 +228,25 @@ fn emissive_cells(media: &Media) -> (Vec<EmissiveCell>, Vec<f32>) {
                     let (lo, size) = g.cell_box(c);
                     let volume_world = det * size * size * size;
                     let mut mean = 0.0;
-                    for k in 0..8 {
+                    for k in 0..side * side * side {
                         let o = Vec3::new(
-                            (k & 1) as f32 * 0.5 + 0.25,
-                            ((k >> 1) & 1) as f32 * 0.5 + 0.25,
-                            (k >> 2) as f32 * 0.5 + 0.25,
+                            (k % side) as f32 * inv_side + 0.5 * inv_side,
+                            ((k / side) % side) as f32 * inv_side + 0.5 * inv_side,
+                            (k / (side * side)) as f32 * inv_side + 0.5 * inv_side,
                         );
                         let p = v.world_from_index().transform_point3(lo + o * size);
-                        mean += v.eval(p).emission.max(Rgb::ZERO).element_sum() / 3.0;
+                        for &t in &times {
+                            mean += v.eval(p, t).emission.max(Rgb::ZERO).element_sum() / 3.0;
+                        }
                     }
-                    mean /= 8.0;
+                    mean /= (side * side * side * times.len()) as f32;
                     cells.push(EmissiveCell {
                         volume: vi,
                         lo,
                         size,
                         volume_world,
                     });
-                    weights.push(mean.max(0.05 * bound) * volume_world);
+                    weights.push(mean.max(floor * bound) * volume_world);
                 }
             }
         }

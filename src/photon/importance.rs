@@ -64,12 +64,20 @@ impl Importance {
             }
         };
         let media = &world.media;
+        // A moving volume is seen where it is at each time of the shutter:
+        // the camera's view at four times spread over it.
+        let times: Vec<f32> = match cam.shutter() {
+            Some(s) => (0..4).map(|i| s.time((i as f32 + 0.5) / 4.0)).collect(),
+            None => vec![0.0],
+        };
         let grid = (0..cam.height())
             .into_par_iter()
             .fold(
                 || vec![0.0f32; n],
                 |mut g, y| {
-                    for x in 0..cam.width() {
+                    for (x, &time) in
+                        (0..cam.width()).flat_map(|x| times.iter().map(move |t| (x, t)))
+                    {
                         let d = cam.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
                         let o = cam.position();
                         let mut tr = 1.0f32;
@@ -88,7 +96,7 @@ impl Importance {
                                 if let Some(j) = index(p) {
                                     g[j] = g[j].max(tr);
                                 }
-                                let st = media.eval(p).sigma_t();
+                                let st = media.eval(p, time).sigma_t();
                                 tr *= (-(st.x + st.y + st.z) / 3.0 * dt).exp();
                                 if tr < T_MIN {
                                     return false;

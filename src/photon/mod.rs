@@ -45,6 +45,7 @@ pub mod emitter;
 pub mod importance;
 pub mod map;
 
+use crate::ray::Ray;
 use crate::sampling::{roulette, Domain, Rng};
 use crate::tracking::{collide, sample_t_maj};
 use crate::world::World;
@@ -133,14 +134,16 @@ impl Store<'_> {
 /// Photons emitted per chunk of work (the unit of parallelism).
 const CHUNK: u32 = 1024;
 
-/// Traces `n` photons of pass `pass`, keeping eligible collisions as
-/// `store` says.
+/// Traces `n` photons of pass `pass` at `time` (frames from the frame:
+/// where moving volumes are), keeping eligible collisions as `store` says.
+#[allow(clippy::too_many_arguments)]
 pub fn trace(
     world: &World,
     emitters: &Emitters,
     n: u32,
     seed: u64,
     pass: u32,
+    time: f32,
     max_bounces: u32,
     store: Store,
 ) -> (Vec<Photon>, TraceStats) {
@@ -159,6 +162,7 @@ pub fn trace(
                     world,
                     emitters,
                     n,
+                    time,
                     max_bounces,
                     store,
                     &mut rng,
@@ -213,17 +217,19 @@ impl Flights {
 }
 
 /// One photon's flight: what it met.
+#[allow(clippy::too_many_arguments)]
 fn trace_one(
     world: &World,
     emitters: &Emitters,
     n: u32,
+    time: f32,
     max_bounces: u32,
     store: Store,
     rng: &mut Rng,
     out: &mut Vec<Photon>,
 ) -> Flights {
     let mut flight = Flights::default();
-    let Some(e) = emitters.sample(world, rng) else {
+    let Some(e) = emitters.sample(world, time, rng) else {
         return flight;
     };
     let media = &world.media;
@@ -238,44 +244,50 @@ fn trace_one(
     let mut collisions = 0u32;
     loop {
         let mut next: Option<(Vec3, Vec3)> = None;
-        sample_t_maj(media, o, d, f32::INFINITY, rng, |c, rng| {
-            let Some(step) = collide(c, power, rng) else {
-                return false;
-            };
-            power *= step.weight;
-            if !step.scatter {
-                return true;
-            }
-            collisions += 1;
-            if collisions > max_bounces {
-                return false;
-            }
-            flight.collisions += 1;
-            flight.scattered = 1;
-            if collisions >= 2 || e.from_media {
-                flight.eligible += 1;
-                let w = store.weight(c.p);
-                flight.weight += w as f64;
-                let q = (store.scale * w).min(1.0);
-                if q > 0.0 && (q >= 1.0 || rng.next_f32() < q) {
-                    let sigma_s = step.medium.unwrap_or_else(|| media.eval(c.p)).sigma_s;
-                    out.push(Photon {
-                        p: c.p,
-                        wi: -d,
-                        power: power / q,
-                        sigma_s: sigma_s.element_sum() / 3.0,
-                        tag: step.volume as u32 | media_bit,
-                    });
+        sample_t_maj(
+            media,
+            &Ray::at_time(o, d, time),
+            f32::INFINITY,
+            rng,
+            |c, rng| {
+                let Some(step) = collide(c, power, rng) else {
+                    return false;
+                };
+                power *= step.weight;
+                if !step.scatter {
+                    return true;
                 }
-            }
-            if !roulette(&mut power, threshold, rng) {
-                return false;
-            }
-            if let Some((nd, _)) = step.phase.sample_travel(d, rng.next_vec2()) {
-                next = Some((c.p, nd));
-            }
-            false
-        });
+                collisions += 1;
+                if collisions > max_bounces {
+                    return false;
+                }
+                flight.collisions += 1;
+                flight.scattered = 1;
+                if collisions >= 2 || e.from_media {
+                    flight.eligible += 1;
+                    let w = store.weight(c.p);
+                    flight.weight += w as f64;
+                    let q = (store.scale * w).min(1.0);
+                    if q > 0.0 && (q >= 1.0 || rng.next_f32() < q) {
+                        let sigma_s = step.medium.unwrap_or_else(|| media.eval(c.p, time)).sigma_s;
+                        out.push(Photon {
+                            p: c.p,
+                            wi: -d,
+                            power: power / q,
+                            sigma_s: sigma_s.element_sum() / 3.0,
+                            tag: step.volume as u32 | media_bit,
+                        });
+                    }
+                }
+                if !roulette(&mut power, threshold, rng) {
+                    return false;
+                }
+                if let Some((nd, _)) = step.phase.sample_travel(d, rng.next_vec2()) {
+                    next = Some((c.p, nd));
+                }
+                false
+            },
+        );
         match next {
             Some((p, nd)) if power.is_finite() => {
                 o = p;

@@ -14,8 +14,8 @@ use serde::Deserialize;
 
 use super::desc::{
     affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, EnvironmentDesc, Estimate,
-    Integrator, LightDesc, MaterialDesc, PhaseDesc, PhotonSettings, Principled, RenderDesc,
-    SceneDesc, VolumeDesc,
+    Integrator, LightDesc, MaterialDesc, MotionBlurDesc, PhaseDesc, PhotonSettings, Principled,
+    RenderDesc, SceneDesc, ShutterPosition, VelocityUnit, VolumeDesc,
 };
 use super::desc::{CameraPose, Lens, SensorFit, VolumeBounds, AUTO_VIEW_DIRECTION};
 use super::error::{kp, PathSeg, ValidationError};
@@ -142,6 +142,26 @@ struct RenderIn {
     exposure: Option<f64>,
     aovs: Option<bool>,
     frames: Option<String>,
+    motion_blur: Option<bool>,
+    shutter: Option<f64>,
+    shutter_position: Option<ShutterPositionIn>,
+    fps: Option<f64>,
+    denoise: Option<bool>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum ShutterPositionIn {
+    Start,
+    Center,
+    End,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum VelocityUnitIn {
+    Second,
+    Frame,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -283,6 +303,9 @@ struct VolumeIn {
     frame_offset: Option<i64>,
     #[serde(default, deserialize_with = "exact")]
     temperature_from_flame: Option<[f64; 2]>,
+    velocity_grid: Option<String>,
+    velocity_scale: Option<Splat3>,
+    velocity_unit: Option<VelocityUnitIn>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -462,6 +485,21 @@ impl RenderIn {
                 ),
                 None => None,
             },
+            motion_blur: {
+                let m = d.motion_blur;
+                MotionBlurDesc {
+                    enabled: self.motion_blur.unwrap_or(m.enabled),
+                    shutter: self.shutter.map_or(m.shutter, |s| s as f32),
+                    position: match self.shutter_position {
+                        None => m.position,
+                        Some(ShutterPositionIn::Start) => ShutterPosition::Start,
+                        Some(ShutterPositionIn::Center) => ShutterPosition::Center,
+                        Some(ShutterPositionIn::End) => ShutterPosition::End,
+                    },
+                    fps: self.fps.unwrap_or(m.fps),
+                }
+            },
+            denoise: self.denoise.unwrap_or(d.denoise),
         })
     }
 }
@@ -729,6 +767,12 @@ impl VolumeIn {
             temperature_from_flame: self
                 .temperature_from_flame
                 .map(|[a, b]| [a as f32, b as f32]),
+            velocity_grid: self.velocity_grid,
+            velocity_scale: self.velocity_scale.map_or(Vec3::ONE, |s| v3(s.0)),
+            velocity_unit: match self.velocity_unit {
+                None | Some(VelocityUnitIn::Second) => VelocityUnit::Second,
+                Some(VelocityUnitIn::Frame) => VelocityUnit::Frame,
+            },
         })
     }
 }

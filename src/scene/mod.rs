@@ -28,12 +28,12 @@ pub const MAX_SCENE_BYTES: u64 = 1 << 20;
 
 pub use desc::{
     affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, CameraPose,
-    EnvironmentDesc, Estimate, Integrator, Lens, LightDesc, MaterialDesc, PhaseDesc,
-    PhotonSettings, Principled, RenderDesc, SceneDesc, SensorFit, VolumeBounds, VolumeDesc,
-    AUTO_VIEW_DIRECTION,
+    EnvironmentDesc, Estimate, Integrator, Lens, LightDesc, MaterialDesc, MotionBlurDesc,
+    PhaseDesc, PhotonSettings, Principled, RenderDesc, SceneDesc, SensorFit, ShutterPosition,
+    VelocityUnit, VolumeBounds, VolumeDesc, AUTO_VIEW_DIRECTION,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
-pub use validate::MAX_PIXELS;
+pub use validate::{MAX_PIXELS, MAX_SHUTTER};
 
 use input::SceneIn;
 use source_map::SourceMap;

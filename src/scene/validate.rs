@@ -124,6 +124,10 @@ fn grid_name(path: &[PathSeg], name: &str) -> Check {
     }
 }
 
+/// The longest shutter, frames: a shutter open for longer blurs a volume
+/// over a thousand frames of its motion, a mistake rather than a look.
+pub const MAX_SHUTTER: f32 = 1000.0;
+
 impl SceneDesc {
     /// Checks every rule the parser cannot express per key: ranges, finite
     /// numbers, camera geometry, at least one volume. Returns the first
@@ -142,6 +146,7 @@ impl SceneDesc {
                 ("temperature_grid", &volume.temperature_grid),
                 ("flame_grid", &volume.flame_grid),
                 ("color_grid", &volume.color_grid),
+                ("velocity_grid", &volume.velocity_grid),
             ] {
                 if let Some(name) = grid {
                     grid_name(&with(&path, key), name)?;
@@ -175,6 +180,7 @@ impl SceneDesc {
                     );
                 }
             }
+            finite3(&with(&path, "velocity_scale"), volume.velocity_scale)?;
             if volume.frame_offset.unsigned_abs() > crate::sequence::MAX_FRAME as u64 {
                 return err(
                     with(&path, "frame_offset"),
@@ -252,6 +258,25 @@ impl SceneDesc {
         pattern(&p("output"), &r.output)?;
         if let Some(preview) = &r.preview {
             pattern(&p("preview"), preview)?;
+        }
+        let m = &r.motion_blur;
+        if !(m.shutter.is_finite() && (0.0..=MAX_SHUTTER).contains(&m.shutter)) {
+            return err(
+                p("shutter"),
+                format!(
+                    "must be a number of frames in [0, {MAX_SHUTTER}] (Blender's default is 0.5), got {}",
+                    m.shutter
+                ),
+            );
+        }
+        if !(m.fps.is_finite() && m.fps > 0.0 && m.fps <= 1e6) {
+            return err(
+                p("fps"),
+                format!(
+                    "must be more than 0 frames per second (Blender's fps / fps_base; 24 by default), got {}",
+                    m.fps
+                ),
+            );
         }
         finite(&p("exposure"), r.exposure)
     }

@@ -36,7 +36,8 @@ lists and scripts/README.md checked: no clamping (direct and indirect 0), no
 adaptive sampling, no light tree, light sampling threshold 0, no path
 guiding, no denoising, box pixel filter of 1 px, volume precision FULL,
 volume clipping 0, volume interpolation Linear, unbiased (null scattering)
-volume integrator, Standard view transform with no look/exposure/gamma, all
+volume integrator (the ray-marching one at a quarter of Cycles' default
+step with motion blur: see setup_motion_blur), Standard view transform with no look/exposure/gamma, all
 bounce limits (total, volume, diffuse, glossy, transmission) = B =
 max_bounces - 1 (transparent 1024): vdbphoton's max_bounces counts
 scattering events, Cycles counts bounces after the first one (Volume
@@ -138,8 +139,17 @@ Mapping of the format onto Blender (conventions of docs/scene.md):
 Keys it cannot reproduce stop the script with a message naming the key
 (phase "schlick", render.integrator other than "path", render.aovs = true, a
 seed beyond Cycles' 2^31 - 1, camera framing = "auto", max_bounces = 0 with a
-scattering volume, temperature_from_flame). Unknown keys are errors, as in
-vdbphoton; scene errors exit with code 2.
+scattering volume, temperature_from_flame, a per-axis velocity_scale).
+Unknown keys are errors, as in vdbphoton; scene errors exit with code 2.
+
+Motion blur ([render] motion_blur, shutter, shutter_position, fps;
+[[volume]] velocity_grid, velocity_scale, velocity_unit): Blender's
+Motion Blur (Shutter, Position, the scene's fps / fps_base) and each
+Volume's Velocity Grid, Scale and Unit, as docs/scene.md ("Motion blur")
+defines them; velocities per frame, which Cycles 5.0.1 reads without the
+shutter, are scaled so that Cycles renders what they mean, and
+shutter_position = "end", which Cycles misplaces, is refused
+(setup_motion_blur).
 
 Known differences that are not errors (printed as notes): vdbphoton applies
 Emission Strength only where the density is > 0, and blackbody emission
@@ -313,7 +323,58 @@ def parse_frames(text, where):
 # ------------------------------------------------------------------- set-up
 
 RENDER_KEYS = ['width', 'height', 'spp', 'seed', 'max_bounces', 'integrator', 'output',
-               'preview', 'exposure', 'aovs', 'frames']
+               'preview', 'exposure', 'aovs', 'frames', 'motion_blur', 'shutter',
+               'shutter_position', 'fps']
+
+
+def motion_blur(r):
+    """[render] motion_blur, shutter (frames), shutter_position, fps, with
+    vdbphoton's defaults; None when motion blur is off."""
+    on = r.get('motion_blur', False)
+    if not isinstance(on, bool):
+        fail(f"key 'motion_blur' in [render]: expected true or false, got {on!r}")
+    shutter = num(r.get('shutter', 0.5), 'render.shutter')
+    position = r.get('shutter_position', 'center')
+    fps = num(r.get('fps', 24.0), 'render.fps')
+    if position not in ('start', 'center', 'end'):
+        fail(f"key 'shutter_position' in [render]: expected \"start\", \"center\" or \"end\", "
+             f"got {position!r}")
+    if not (0.0 <= shutter <= 1000.0):
+        fail(f"key 'shutter' in [render]: must be in [0, 1000] frames, got {shutter}")
+    if not fps > 0.0:
+        fail(f"key 'fps' in [render]: must be more than 0, got {fps}")
+    return dict(shutter=shutter, position=position, fps=fps) if on else None
+
+
+def setup_motion_blur(scene, mb):
+    """Cycles' motion blur as vdbphoton's (docs/scene.md, Motion blur).
+    Cycles 5.0.1 differs in two ways, measured (a box moving at a known
+    speed, its smear's ends located in the image): its Position End puts
+    the shutter at [(1 - s), (2 - s)] frames after the frame instead of
+    [-s, 0], which no setting makes up for (a negative Velocity Scale
+    would, but Blender clamps it at 0), so shutter_position = "end" is
+    refused; and with velocity_unit Frame it ignores the shutter (the smear
+    is always one frame's motion), so the Volume's velocity_scale is
+    multiplied by the shutter there (setup_velocity). Cycles' default (null-scattering) volume
+    integrator skips space where the volume is empty at the middle of the
+    shutter (its density octree is built at ray time 0.5) and cuts a
+    smear off there, so motion blur renders with its ray-marching
+    integrator (volume_biased), at a quarter of the default step."""
+    r = scene.render
+    r.use_motion_blur = True
+    r.motion_blur_shutter = mb['shutter']
+    if mb['position'] == 'end':
+        fail("key 'shutter_position' in [render]: \"end\" cannot be reproduced: Cycles 5.0.1 "
+             "blurs its End over [1 - shutter, 2 - shutter] frames after the frame, not over "
+             "the shutter before it (use \"start\" or \"center\")")
+    r.motion_blur_position = {'start': 'START', 'center': 'CENTER'}[mb['position']]
+    fps = mb['fps']
+    base = max(1, min(120, round(fps)))
+    r.fps = base
+    r.fps_base = base / fps
+    scene.cycles.volume_biased = True
+    scene.cycles.volume_step_rate = 0.25
+    scene.cycles.volume_max_steps = 4096
 
 
 def scatters(v):
@@ -357,8 +418,8 @@ def unbiased_cycles(scene, spp, seed, threads):
     """Cycles on the CPU with every setting that would bias a reference off
     (/work/shared/REFERENCE.md): no clamping, adaptive sampling, light tree,
     path guiding or denoising; light threshold 0; a 1-pixel box filter; the
-    unbiased (null-scattering) volume integrator; no motion blur; no film
-    transparency or dither; the Standard view; float32 RGBA EXR (ZIP).
+    unbiased (null-scattering) volume integrator; no motion blur (the
+    caller turns it on: setup_motion_blur); no film transparency or dither; the Standard view; float32 RGBA EXR (ZIP).
     Bounce limits and the image size are the caller's. Shared with
     test_export/render_blend.py, which renders a .blend as it is."""
     scene.render.engine = 'CYCLES'
@@ -436,8 +497,11 @@ def setup_render(scene, r, args, vols=()):
     scene.render.pixel_aspect_y = 1.0
     if args.half:
         scene.render.image_settings.color_depth = '16'
+    mblur = motion_blur(r)
+    if mblur is not None:
+        setup_motion_blur(scene, mblur)
     return dict(width=width, height=height, spp=spp, seed=seed, max_bounces=mb,
-                cycles_bounces=bounces)
+                cycles_bounces=bounces, motion_blur=mblur)
 
 
 CAMERA_KEYS = ['position', 'look_at', 'up', 'vfov', 'focal_length', 'sensor_width',
@@ -866,11 +930,49 @@ def check_bounds(v, where):
         fail(f"key 'bounds' in {where}: the first corner must be <= the second in x, y and z")
 
 
-def setup_volume(scene, i, v, base, notes, frame):
+def setup_velocity(vol, v, where, names, mblur, path):
+    """The Volume's velocity grid, scale and unit (Blender's Volume data
+    settings), as vdbphoton reads them: `velocity_grid` (default: the first
+    of velocity, vel the file has), `velocity_scale` (one number; Cycles
+    has no per-axis scale), `velocity_unit` second | frame."""
+    unit = v.get('velocity_unit', 'second')
+    if unit not in ('second', 'frame'):
+        fail(f"key 'velocity_unit' in {where}: expected \"second\" or \"frame\", got {unit!r}")
+    scale = v.get('velocity_scale', 1.0)
+    if isinstance(scale, list):
+        sc = vec3(scale, 'velocity_scale')
+        if not (sc[0] == sc[1] == sc[2]):
+            fail(f"key 'velocity_scale' in {where}: Cycles scales velocities by one number; "
+                 f"a per-axis scale {sc} cannot be reproduced")
+        scale = sc[0]
+    scale = num(scale, 'velocity_scale')
+    if mblur is None:
+        return
+    name = v.get('velocity_grid')
+    if name is None:
+        name = next((n for n in ('velocity', 'vel') if n in names
+                     or all(f'{n}{c}' in names for c in ('.x', '.y', '.z'))), None)
+        if name is None:
+            return
+    elif name not in names and not all(f'{name}{c}' in names for c in ('.x', '.y', '.z')):
+        raise FrameError(f"key 'velocity_grid' in {where}: no grid '{name}' in {path} "
+                         f"(grids: {', '.join(names)})")
+    vol.velocity_grid = name
+    vol.velocity_unit = 'SECOND' if unit == 'second' else 'FRAME'
+    if unit == 'frame':
+        # Cycles ignores the shutter for velocities per frame.
+        scale *= mblur['shutter']
+    if scale < 0.0:
+        fail(f"key 'velocity_scale' in {where}: Cycles clamps a negative Velocity Scale at 0")
+    vol.velocity_scale = scale
+
+
+def setup_volume(scene, i, v, base, notes, frame, mblur=None):
     where = f'[[volume]] #{i + 1}'
     check_keys(v, ['file', 'density_grid', 'temperature_grid', 'flame_grid', 'color_grid',
                    'blackbody_interpolation', 'transform', 'material', 'bounds', 'frame_offset',
-                   'temperature_from_flame'], where)
+                   'temperature_from_flame', 'velocity_grid', 'velocity_scale',
+                   'velocity_unit'], where)
     if 'file' not in v:
         fail(f"missing key 'file' in {where}")
     if not isinstance(v['file'], str):
@@ -918,6 +1020,7 @@ def setup_volume(scene, i, v, base, notes, frame):
         if name is not None and name not in names:
             raise FrameError(f"key '{k}' in {where}: no grid '{name}' in {path} "
                              f"(grids: {', '.join(names)})")
+    setup_velocity(vol, v, where, names, mblur, path)
 
     tr = v.get('transform', {})
     check_keys(tr, ['translate', 'rotate', 'scale', 'matrix'], f'{where}.transform')
@@ -980,7 +1083,7 @@ def build_scene(desc, args, base, frame, notes):
         fail('no [[volume]]: a scene needs at least one volume')
     paths = []
     for i, v in enumerate(vols):
-        path, grids = setup_volume(scene, i, v, base, notes, frame)
+        path, grids = setup_volume(scene, i, v, base, notes, frame, info['motion_blur'])
         paths.append((path, grids))
     return scene, info, paths
 

@@ -4,7 +4,7 @@ Usage (any of):
 
     blender -b FILE.blend -P tools/blender/vdbphoton_export.py -- OUT.toml \
         [--frames A-B] [--output 'renders/frame_{frame:04}.exr'] [--preview P.png | --no-preview]
-        [--scene NAME] [--cache-temperature]
+        [--scene NAME] [--cache-temperature] [--fluid-velocity blender|physical]
     VENV/bin/python tools/blender/vdbphoton_export.py FILE.blend OUT.toml [same options]
     as an add-on: File > Export > vdbphoton scene (.toml)
 
@@ -17,7 +17,9 @@ CLI):
              counts bounces after the first scattering, vdbphoton counts
              scattering events); frames = the scene's frame range (or
              --frames); output/preview = Blender's output path with '#'
-             for the frame (or --output); exposure = the view exposure.
+             for the frame (or --output); exposure = the view exposure;
+             motion_blur, shutter (frames), shutter_position and fps
+             (fps / fps_base) when Motion Blur is on.
   [camera]   Blender's camera: matrix (matrix_world, scale removed),
              focal_length, sensor_width/height, sensor_fit, shift_x/y.
              Orthographic and panoramic cameras are refused.
@@ -280,7 +282,8 @@ def pattern_path(pattern, frame):
 
 class Exporter:
     def __init__(self, scene, view_layer=None, frames=None, output=None, preview=None,
-                 no_preview=False, cache_temperature=False, warn=None, blend_path=None):
+                 no_preview=False, cache_temperature=False, warn=None, blend_path=None,
+                 fluid_velocity='blender'):
         self.scene = scene
         self.view_layer = view_layer or scene.view_layers[0]
         self.frames_arg = frames
@@ -288,6 +291,10 @@ class Exporter:
         self.preview_arg = preview
         self.no_preview = no_preview
         self.cache_temperature = cache_temperature
+        if fluid_velocity not in ('blender', 'physical'):
+            raise ExportError(f"fluid velocity {fluid_velocity!r}: expected 'blender' or "
+                              "'physical'")
+        self.fluid_velocity = fluid_velocity
         self.warnings = []
         self.notes = []
         self._warn_cb = warn
@@ -352,7 +359,23 @@ class Exporter:
             self.warn(f"scene '{sc.name}': pixel aspect {r.pixel_aspect_x}:{r.pixel_aspect_y} "
                       "is not supported (square pixels are rendered)")
         if r.use_motion_blur:
-            self.warn(f"scene '{sc.name}': motion blur is not supported")
+            out['motion_blur'] = True
+            out['shutter'] = g7(r.motion_blur_shutter)
+            out['shutter_position'] = r.motion_blur_position.lower()
+            out['fps'] = g7(r.fps / r.fps_base)
+            if r.motion_blur_position == 'END':
+                self.warn(f"scene '{sc.name}': motion blur Position End: Blender 5.0.1 "
+                          "blurs over the shutter's length after the frame instead of before "
+                          "it; vdbphoton blurs over the shutter ending at the frame")
+            if getattr(cy, 'rolling_shutter_type', 'NONE') != 'NONE':
+                self.warn(f"scene '{sc.name}': the rolling shutter is not exported (every "
+                          "row is blurred over the same shutter)")
+            curve = r.motion_blur_shutter_curve
+            pts = [tuple(round(c, 6) for c in p.location) for p in curve.curves[0].points]
+            if len(pts) > 2 or any(p[1] != 1.0 for p in pts):
+                self.warn(f"scene '{sc.name}': the motion blur Shutter Curve is not exported "
+                          "(vdbphoton's shutter is open fully over its whole length, "
+                          "Blender's default curve)")
         if self.frames_arg:
             if not FRAMES_RE.match(self.frames_arg):
                 raise ExportError(f"--frames {self.frames_arg!r}: expected a list like 1-40 "
@@ -694,12 +717,33 @@ class Exporter:
                 comment.append(f"volume Space = Object: densities and emission x {f:.7g} "
                                "(Blender's 1 / |M (1,1,1)/sqrt 3|)")
         entry['material'] = m['material']
+        self.volume_velocity(vol, names, entry, comment, what)
         entry['_comment'] = comment
         for mod in o.modifiers:
             if mod.show_render:
                 self.warn(f"{what}: modifier '{mod.name}' ({mod.type}) is not applied; the "
                           "file is rendered as it is")
         return entry
+
+    def volume_velocity(self, vol, names, entry, comment, what):
+        """A Volume object's velocity settings (Blender's Volume data,
+        Velocity panel): the grid when not the default, scale and unit."""
+        grid = vol.velocity_grid
+        if grid and grid != 'velocity':
+            if names is not None and grid not in names and not all(
+                    f'{grid}{c}' in names for c in ('.x', '.y', '.z')):
+                self.warn(f"{what}: its Velocity Grid '{grid}' is not in the file; no "
+                          "motion blur for it")
+            else:
+                entry['velocity_grid'] = grid
+        if vol.velocity_scale != 1.0:
+            entry['velocity_scale'] = g7(vol.velocity_scale)
+        if vol.velocity_unit == 'FRAME':
+            entry['velocity_unit'] = 'frame'
+            if self.scene.render.use_motion_blur and self.scene.render.motion_blur_shutter != 1.0:
+                self.warn(f"{what}: velocity unit Frame: Blender 5.0.1 ignores the shutter "
+                          "for velocities per frame (its blur is always one frame's motion); "
+                          "vdbphoton blurs over the shutter")
 
     def export_domain(self, o, mod):
         ds = mod.domain_settings
@@ -776,6 +820,24 @@ class Exporter:
                            rounded([max(lo[i], hi[i]) for i in range(3)], 9)]
         entry['transform'] = {'matrix': matrix_rows(T)}
         entry['material'] = m['material']
+        if self.fluid_velocity == 'physical':
+            # Mantaflow's cells per time unit, a frame being 0.1 x 25 / fps x
+            # time_scale time units (Blender's frame_length): in file units
+            # per second, 2.5 x time_scale x voxel.
+            k = 2.5 * ds.time_scale * F.to_3x3().to_scale()[0] * ds.velocity_scale
+            entry['velocity_scale'] = g7(k)
+            comment.append(f"velocity: Mantaflow's cells per time unit as units per second "
+                           f"(2.5 x time scale {ds.time_scale:g} x voxel x Velocity Scale "
+                           f"{ds.velocity_scale:g})")
+        else:
+            # Cycles reads the raw velocity as units per second in the
+            # domain object's space: per axis, voxel / local cell.
+            dx = F.to_3x3().to_scale()[0]
+            k = [dx / place['cell'][i] * ds.velocity_scale for i in range(3)]
+            entry['velocity_scale'] = rounded(k)
+            comment.append("velocity: read as Blender reads a domain's (units per second in "
+                           "the domain object's space; --fluid-velocity physical moves it as "
+                           "the simulation did)")
         comment.append(f"domain resolution {res[0]} x {res[1]} x {res[2]}, voxel i at local "
                        f"p0 + (i + 0.5) * cell: matrix = matrix_world . Translate(p0 + cell/2) "
                        f". Scale(cell) . (file index->world)^-1")
@@ -1374,6 +1436,13 @@ class EXPORT_SCENE_OT_vdbphoton(bpy.types.Operator, ExportHelper):
         name="Cache's temperature grid", default=False,
         description="For smoke domains with fire, use the cache's 'temperature' grid (heat) "
                     "instead of the temperature Blender makes from the flame grid")
+    fluid_velocity: bpy.props.EnumProperty(
+        name='Fluid velocity', default='blender',
+        items=[('blender', 'As Blender renders it',
+                "A domain's cache velocity read as Cycles reads it"),
+               ('physical', 'As simulated',
+                "A domain's cache velocity moving the smoke as the simulation did")],
+        description="How a smoke domain's velocity blurs it when motion blur is on")
 
     def execute(self, context):
         msgs = []
@@ -1381,7 +1450,8 @@ class EXPORT_SCENE_OT_vdbphoton(bpy.types.Operator, ExportHelper):
             ex = export_scene(self.filepath, context.scene, context.view_layer,
                               warn=lambda kind, m: msgs.append((kind, m)),
                               frames=self.frames or None, output=self.output or None,
-                              cache_temperature=self.cache_temperature)
+                              cache_temperature=self.cache_temperature,
+                              fluid_velocity=self.fluid_velocity)
         except ExportError as e:
             self.report({'ERROR'}, str(e))
             return {'CANCELLED'}
@@ -1411,7 +1481,7 @@ def unregister():
 USAGE = ("usage: blender -b FILE.blend -P vdbphoton_export.py -- OUT.toml [options]\n"
          "       python vdbphoton_export.py FILE.blend OUT.toml [options]\n"
          "options: --frames A-B  --output PATH.exr  --preview PATH.png  --no-preview\n"
-         "         --scene NAME  --cache-temperature")
+         "         --scene NAME  --cache-temperature  --fluid-velocity blender|physical")
 
 
 def main(argv):
@@ -1424,6 +1494,7 @@ def main(argv):
     ap.add_argument('--no-preview', action='store_true')
     ap.add_argument('--scene')
     ap.add_argument('--cache-temperature', action='store_true')
+    ap.add_argument('--fluid-velocity', choices=['blender', 'physical'], default='blender')
     try:
         a = ap.parse_args(argv)
     except SystemExit as e:
@@ -1458,7 +1529,8 @@ def main(argv):
     try:
         ex = export_scene(out, scene, None, warn=warn, frames=a.frames,
                           output=a.output, preview=a.preview, no_preview=a.no_preview,
-                          cache_temperature=a.cache_temperature)
+                          cache_temperature=a.cache_temperature,
+                          fluid_velocity=a.fluid_velocity)
     except ExportError as e:
         print(f'{PREFIX}: error: {e}', file=sys.stderr)
         return 1

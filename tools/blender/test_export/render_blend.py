@@ -5,7 +5,11 @@ a reference off (render_cycles.py's list, /work/shared/REFERENCE.md): CPU;
 clamping 0; adaptive sampling, light tree, path guiding, denoising off;
 light threshold 0; box filter 1 px; unbiased volume integrator; Volume
 objects at FULL precision, clipping 0; Standard view, no look/exposure;
-dither 0; no motion blur.
+dither 0. Motion blur as the .blend has it (Render Properties > Motion
+Blur), with Cycles' ray-marching volume integrator at a quarter of the
+default step when it is on (its default integrator cuts smears off where
+the volume is empty at the middle of the shutter: render_cycles.py's
+setup_motion_blur).
 
 Usage:
     VENV/bin/python tools/blender/test_export/render_blend.py FILE.blend OUT.exr \
@@ -49,9 +53,15 @@ def f32(x):
 
 def unbiased(sc, spp, seed, threads, out):
     # render_cycles.py's unbiased settings; the scene keeps its own bounce
-    # limits and image size.
+    # limits, image size and motion blur.
+    blur = sc.render.use_motion_blur
     render_cycles.unbiased_cycles(sc, spp, seed, threads)
     r = sc.render
+    if blur:
+        r.use_motion_blur = True
+        sc.cycles.volume_biased = True
+        sc.cycles.volume_step_rate = 0.25
+        sc.cycles.volume_max_steps = 4096
     r.use_border = False
     r.filepath = out
     for v in bpy.data.volumes:

@@ -1,0 +1,70 @@
+//! The denoising albedo of a camera ray (`crate::denoise`): the scattering
+//! colour seen along it, ∫ T(s)·σs(s) ds, plus the transmittance times what
+//! it sees of the environment (at most 1), as Cycles' Denoising Albedo pass
+//! holds for volumes. A march: steps of at most `step`, one jitter per ray,
+//! each adding T·(1 − e^{−σtΔ})·σs/σt at its midpoint (exact for optics
+//! constant over the step), until the transmittance is below 10^-3.
+
+use crate::ray::Ray;
+use crate::sampling::Rng;
+use crate::world::World;
+use crate::Rgb;
+
+/// The march stops once every channel's transmittance is below this: what
+/// lies behind adds at most this much.
+const T_MIN: f32 = 1e-3;
+
+/// The denoising albedo along `ray` (`ray.d` unit), marched in steps of at
+/// most `step` world units.
+pub fn along(world: &World, ray: &Ray, step: f32, rng: &mut Rng) -> Rgb {
+    let media = &world.media;
+    let jitter = rng.next_f32();
+    let mut tr = Rgb::ONE;
+    let mut albedo = Rgb::ZERO;
+    let mut ended = false;
+    media.for_each_segment(ray.o, ray.d, 0.0, f32::INFINITY, |seg| {
+        if seg.max_density <= 0.0 {
+            return true;
+        }
+        let len = seg.t1 - seg.t0;
+        let n = (len / step).ceil().clamp(1.0, 1e6) as u32;
+        let dt = len / n as f32;
+        for i in 0..n {
+            let t = seg.t0 + (i as f32 + jitter) * dt;
+            let m = media.eval(ray.at(t), ray.time);
+            let st = m.sigma_t();
+            let att = (-st * dt).map(f32::exp);
+            let w = Rgb::select(
+                st.cmpgt(Rgb::splat(1e-6)),
+                (Rgb::ONE - att) / st.max(Rgb::splat(1e-6)),
+                Rgb::splat(dt),
+            );
+            albedo += tr * w * m.sigma_s;
+            tr *= att;
+            if tr.max_element() < T_MIN {
+                ended = true;
+                return false;
+            }
+        }
+        true
+    });
+    if !ended {
+        albedo += tr * world.environment.le(ray.d).min(Rgb::ONE);
+    }
+    albedo
+}
+
+/// The march step for `world`: its finest voxel.
+pub fn step(world: &World) -> f32 {
+    let finest = world
+        .media
+        .volumes()
+        .iter()
+        .map(|v| v.voxel_length())
+        .fold(f32::INFINITY, f32::min);
+    if finest.is_finite() {
+        finest
+    } else {
+        1.0
+    }
+}
