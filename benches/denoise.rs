@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 use vdbphoton::film::{Film, Region};
 use vdbphoton::render::{make_integrator, run_passes, Denoiser, Silent, Stop};
-use vdbphoton::scene::{Integrator, SceneDesc};
+use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::World;
 
 fn status_bytes(field: &str) -> u64 {
@@ -46,7 +46,7 @@ fn main() {
         SceneDesc::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cloud.toml")).unwrap();
     desc.render.width = w;
     desc.render.height = h;
-    desc.render.integrator = Integrator::Path;
+    desc.render.integrator = "path".into();
     let world = World::load(&desc).unwrap();
     let mut integrator = make_integrator(&desc, &world).unwrap();
     integrator.enable_albedo(&world);
@@ -78,7 +78,10 @@ fn main() {
             return;
         }
     };
-    println!("load Open Image Denoise: {:.3} s", t.elapsed().as_secs_f64());
+    println!(
+        "load Open Image Denoise: {:.3} s",
+        t.elapsed().as_secs_f64()
+    );
     for run in ["first", "second"] {
         let mut img = image.clone();
         reset_peak();

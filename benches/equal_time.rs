@@ -24,8 +24,9 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use vdbphoton::film::{Film, Region};
 use vdbphoton::image::{compare, read_exr_rgb, ImageRgb};
+use vdbphoton::integrator::photon::{photons_for, PhotonSettings};
 use vdbphoton::render::{make_integrator, run_passes, Silent, Stop};
-use vdbphoton::scene::{Integrator as Choice, SceneDesc};
+use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::World;
 
 fn average(a: &ImageRgb, b: &ImageRgb) -> ImageRgb {
@@ -96,52 +97,46 @@ fn main() {
             continue;
         };
         let mut desc = SceneDesc::load(&file).unwrap();
-        if let Some(n) = std::env::var("BENCH_PHOTONS")
-            .ok()
-            .and_then(|v| v.parse().ok())
+        // Photon settings from the environment, into [render.photon].
         {
-            desc.render.photon.photons = Some(n);
+            use vdbphoton::scene::Param;
+            let photon = desc.render.settings.entry("photon".into()).or_default();
+            for (var, key) in [("BENCH_PHOTONS", "photons"), ("BENCH_K", "k")] {
+                if let Some(n) = std::env::var(var).ok().and_then(|v| v.parse().ok()) {
+                    photon.insert(key.into(), Param::Int(n));
+                }
+            }
+            if let Some(a) = std::env::var("BENCH_ALPHA")
+                .ok()
+                .and_then(|v| v.parse().ok())
+            {
+                photon.insert("alpha".into(), Param::Float(a));
+            }
+            if let Ok(e) = std::env::var("BENCH_ESTIMATE") {
+                photon.insert("estimate".into(), Param::Str(e));
+            }
         }
-        if let Some(a) = std::env::var("BENCH_ALPHA")
-            .ok()
-            .and_then(|v| v.parse().ok())
-        {
-            desc.render.photon.alpha = Some(a);
-        }
-        if let Some(k) = std::env::var("BENCH_K").ok().and_then(|v| v.parse().ok()) {
-            desc.render.photon.k = Some(k);
-        }
-        if let Ok(e) = std::env::var("BENCH_ESTIMATE") {
-            desc.render.photon.estimate = match e.as_str() {
-                "point" => vdbphoton::scene::Estimate::Point,
-                _ => vdbphoton::scene::Estimate::Beam,
-            };
-        }
-        let choices: Vec<Choice> = std::env::var("BENCH_INTEGRATORS")
+        let settings = PhotonSettings::of(&desc).unwrap();
+        let choices: Vec<String> = std::env::var("BENCH_INTEGRATORS")
             .unwrap_or_else(|_| "path,photon".into())
             .split(',')
-            .map(|c| match c.trim() {
-                "path" => Choice::Path,
-                _ => Choice::Photon,
-            })
+            .map(|c| c.trim().to_string())
             .collect();
         println!(
             "\n== {} (photons {} a pass, {:?} estimate, alpha {:?}, k {:?})",
             file.display(),
-            desc.render
-                .photon
-                .photons_for(desc.render.width, desc.render.height),
-            desc.render.photon.estimate,
-            desc.render.photon.alpha,
-            desc.render.photon.k
+            photons_for(&settings, desc.render.width, desc.render.height),
+            settings.estimate,
+            settings.alpha,
+            settings.k
         );
         let seed: u64 = std::env::var("BENCH_SEED")
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(7);
         for &budget in &budgets {
-            for &choice in &choices {
-                desc.render.integrator = choice;
+            for choice in &choices {
+                desc.render.integrator = choice.clone();
                 desc.render.seed = seed;
                 let world = World::load(&desc).unwrap();
                 let mut integ = make_integrator(&desc, &world).unwrap();

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vdbphoton::film::{Film, Region};
 use vdbphoton::render::{make_integrator, run_passes, Silent, Stop};
-use vdbphoton::scene::{Integrator, SceneDesc};
+use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::World;
 
 fn env(name: &str, default: u32) -> u32 {
@@ -71,15 +71,15 @@ fn main() {
         blurred.render.motion_blur.shutter,
         blurred.render.motion_blur.position.name()
     );
-    for integrator in [Integrator::Path, Integrator::Photon] {
-        blurred.render.integrator = integrator;
+    for integrator in ["path", "photon"] {
+        blurred.render.integrator = integrator.into();
         let mut still = blurred.clone();
         still.render.motion_blur.enabled = false;
         let ts = time(&still, spp, runs);
         let tb = time(&blurred, spp, runs);
         println!(
             "{:6}: still {ts:.2} s, blurred {tb:.2} s: {:.2}x",
-            integrator.name(),
+            integrator,
             tb / ts
         );
     }

@@ -16,11 +16,12 @@
 
 use std::path::PathBuf;
 use std::time::Instant;
-use vdbphoton::integrator::{self, Integrator, PhotonIntegrator};
+use vdbphoton::integrator::{Integrator, PhotonIntegrator};
 use vdbphoton::photon::beam::BeamMap;
 use vdbphoton::photon::emitter::Emitters;
 use vdbphoton::photon::map::{density_radii, median, PointMap};
 use vdbphoton::photon::{self, Photon};
+use vdbphoton::render::passes;
 use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::World;
 
@@ -147,8 +148,13 @@ fn main() {
             );
         }
         // One pass of the integrator, split.
-        let mut integ =
-            PhotonIntegrator::new(&world, desc.render.photon, desc.render.max_bounces, 1).unwrap();
+        let mut integ = PhotonIntegrator::new(
+            &world,
+            vdbphoton::integrator::photon::PhotonSettings::of(&desc).unwrap(),
+            desc.render.max_bounces,
+            1,
+        )
+        .unwrap();
         let region = vdbphoton::film::Region::full(desc.render.width, desc.render.height);
         for pass in 0..3 {
             let t = Instant::now();
@@ -157,7 +163,7 @@ fn main() {
             let mut film =
                 vdbphoton::film::Film::new(desc.render.width, desc.render.height, region, false);
             let t = Instant::now();
-            integrator::render_pass(&world, &integ, &mut film, 1, pass, &|_, _| {});
+            passes::render_pass(&world, &integ, &mut film, 1, pass, &|_, _| {});
             let t_cam = secs(t);
             println!(
                 "pass {pass}: photons and map {t_begin:.3} s ({} stored), camera rays {t_cam:.3} s",

@@ -14,7 +14,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 use vdbphoton::image::{compare, read_exr_rgb, ImageRgb};
-use vdbphoton::integrator::{self, Settings};
+use vdbphoton::render::passes::{self, Settings};
 use vdbphoton::scene::SceneDesc;
 use vdbphoton::tracking;
 use vdbphoton::world::World;
@@ -62,7 +62,7 @@ fn main() {
             v.set_majorant_cell(cell, minorant);
         }
         let t0 = Instant::now();
-        let film = integrator::render(&world, &settings, &|_, _| {});
+        let film = passes::render(&world, &settings, &|_, _| {});
         let secs = t0.elapsed().as_secs_f64();
         let img = ImageRgb {
             width: r.width as usize,
@@ -80,7 +80,7 @@ fn main() {
             let mut n = 0u64;
             for y in (0..r.height).step_by(4) {
                 for x in 0..r.width {
-                    integrator::render_pixel(&world, &settings, x, y);
+                    passes::render_pixel(&world, &settings, x, y);
                     n += spp as u64;
                 }
             }

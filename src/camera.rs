@@ -11,17 +11,7 @@
 
 use glam::{Vec2, Vec3};
 
-/// Which image side the sensor spans (Blender's `sensor_fit`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum SensorFit {
-    /// `sensor_width` spans the longer side (Blender's default).
-    #[default]
-    Auto,
-    /// `sensor_width` spans the width.
-    Horizontal,
-    /// `sensor_height` spans the height.
-    Vertical,
-}
+pub use crate::scene::SensorFit;
 
 /// The image plane at unit distance: half-extents and the shift of its
 /// centre, in units of distance (tangents).

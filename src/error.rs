@@ -21,12 +21,15 @@ pub enum Error {
         grid: String,
         message: String,
     },
-    /// Reading or writing an image.
-    #[error(transparent)]
-    Image(#[from] crate::image::ImageError),
-    /// A scene file that cannot be used.
-    #[error(transparent)]
-    Scene(#[from] crate::scene::SceneError),
+    /// Reading or writing an image (`crate::image::ImageError`'s message:
+    /// it converts into this).
+    #[error("{0}")]
+    Image(String),
+    /// A scene file that cannot be used (the scene module's message:
+    /// `crate::scene::SceneError` converts into this, so that this core
+    /// type knows nothing of scenes).
+    #[error("{0}")]
+    Scene(String),
     /// A command-line argument or option out of range.
     #[error("{0}")]
     Argument(String),
@@ -35,7 +38,7 @@ pub enum Error {
     InvalidGrid(String),
     /// The work was stopped by a signal (SIGINT, SIGTERM) before it
     /// finished; nothing was written (an earlier checkpoint stays).
-    #[error("interrupted by {}: nothing written", crate::interrupt::signal_name(*signal))]
+    #[error("interrupted by {}: nothing written", signal_name(*signal))]
     Interrupted { signal: i32 },
     /// An error with where it happened (`scene.toml, [[volume]] 2`).
     #[error("{context}: {source}")]
@@ -99,3 +102,12 @@ impl Error {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// "SIGINT", "SIGTERM" or "signal N".
+pub fn signal_name(signal: i32) -> String {
+    match signal {
+        2 => "SIGINT".into(),
+        15 => "SIGTERM".into(),
+        s => format!("signal {s}"),
+    }
+}

@@ -8,9 +8,27 @@
 //! pixels are addressed in full-image coordinates, row-major from the top.
 
 use crate::image::{Image, ImageError};
-use crate::integrator::SampleResult;
 use crate::Rgb;
 use glam::{DVec3, Vec4};
+
+/// What one camera sample returns.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SampleResult {
+    /// Radiance along the camera ray.
+    pub l: Rgb,
+    /// Light that scattered once in the media (lights and environment).
+    pub direct: Rgb,
+    /// Light that scattered more than once.
+    pub indirect: Rgb,
+    /// Emission of the media (at any depth).
+    pub emission: Rgb,
+    /// Transmittance along the camera ray (mean over channels; alpha is 1
+    /// minus it).
+    pub transmittance: f32,
+    /// The denoising albedo along the camera ray (`crate::denoise`), when
+    /// the integrator was asked for it (`crate::integrator::Integrator::enable_albedo`).
+    pub albedo: Rgb,
+}
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)` in a `width` x `height`
 /// image.

@@ -5,7 +5,8 @@
 //! the Flamenco job type all go through [`render_job`].
 
 use crate::error::{Error, Result};
-use crate::render::{render_scene, RenderOptions, Reporter, Summary};
+pub use crate::render::FrameOutcome;
+use crate::render::{render_scene, RenderOptions, Reporter};
 use crate::scene::{EnvironmentDesc, SceneDesc, VolumeBounds};
 use crate::sequence::{format_frames, frame_seed, PathPattern};
 use std::path::PathBuf;
@@ -20,15 +21,6 @@ pub struct FrameJob {
     /// Leave frames whose EXR exists (outputs are written atomically, so
     /// an existing file is complete).
     pub skip_existing: bool,
-}
-
-/// How one frame ended.
-#[derive(Debug)]
-pub enum FrameOutcome {
-    Written(Summary),
-    /// Its EXR existed (`--skip-existing`).
-    Skipped(PathBuf),
-    Failed(Error),
 }
 
 /// What a job did, frame by frame (`None`: a scene rendered without a
@@ -47,6 +39,23 @@ impl JobReport {
             .filter_map(|(f, _)| *f)
             .collect()
     }
+    /// What happened to the frames: `3 written, 1 skipped, 1 failed (7)`.
+    pub fn tally(&self) -> String {
+        let count = |f: fn(&FrameOutcome) -> bool| self.frames.iter().filter(|(_, o)| f(o)).count();
+        let written = count(|o| matches!(o, FrameOutcome::Written(_)));
+        let skipped = count(|o| matches!(o, FrameOutcome::Skipped(_)));
+        let failed = self.failed();
+        format!(
+            "{written} written, {skipped} skipped, {} failed{}",
+            failed.len(),
+            if failed.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", format_frames(&failed))
+            }
+        )
+    }
+
     /// Whether every frame was written or skipped.
     pub fn ok(&self) -> bool {
         !self

@@ -48,11 +48,4 @@ pub fn check() -> Result<()> {
     }
 }
 
-/// "SIGINT", "SIGTERM" or "signal N".
-pub fn signal_name(signal: i32) -> String {
-    match signal {
-        2 => "SIGINT".into(),
-        15 => "SIGTERM".into(),
-        s => format!("signal {s}"),
-    }
-}
+pub use crate::error::signal_name;

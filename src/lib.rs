@@ -1,17 +1,20 @@
 //! vdbphoton: a physically based renderer for OpenVDB volumes.
 //!
-//! See ARCHITECTURE.md for how the crate is cut: `vdb` (the OpenVDB bridge)
-//! feeds `grid` (our sparse grid); `generate` makes procedural volumes.
+//! See ARCHITECTURE.md for how the crate is cut and the layer order its
+//! modules keep (checked by `tests/layers.rs`); the `vdbphoton` binary
+//! (`src/bin/vdbphoton`) only parses and prints.
 
 pub mod atomic;
 pub mod camera;
 pub mod denoise;
 pub mod error;
+pub mod export;
 pub mod film;
 pub mod frames;
 pub mod generate;
 pub mod grid;
 pub mod image;
+pub mod inspect;
 pub mod integrator;
 pub mod interrupt;
 pub mod light;
@@ -28,6 +31,7 @@ pub mod scene;
 pub mod sequence;
 pub mod stats;
 pub mod tracking;
+pub mod units;
 pub mod vdb;
 pub mod world;
 

@@ -23,20 +23,30 @@ use crate::image::{read_exr, write_exr, write_png_preview, Image, View};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Header settings every input must share: renders of other scenes,
-/// frames or settings cannot be merged.
+/// Header settings every input must share whatever the integrator:
+/// renders of other scenes, frames or settings cannot be merged. Each
+/// integrator adds its own ([`must_agree`]).
 pub const MUST_AGREE: &[&str] = &[
     "vdbphoton/version",
     "vdbphoton/scene_hash",
     "vdbphoton/integrator",
     "vdbphoton/max_bounces",
     "vdbphoton/frame",
-    "vdbphoton/photons_per_pass",
-    "vdbphoton/k",
-    "vdbphoton/alpha",
-    "vdbphoton/estimate",
-    "vdbphoton/step",
 ];
+
+/// Every header key inputs must share: [`MUST_AGREE`] and the registered
+/// integrators' keys (`crate::integrator::Registration::header_keys`).
+pub fn must_agree() -> Vec<&'static str> {
+    let mut keys = MUST_AGREE.to_vec();
+    for reg in crate::integrator::REGISTRY {
+        for k in reg.header_keys {
+            if !keys.contains(k) {
+                keys.push(k);
+            }
+        }
+    }
+    keys
+}
 
 struct Input {
     path: PathBuf,
@@ -227,8 +237,8 @@ pub fn merge(out: &Path, inputs: &[PathBuf], options: &MergeOptions) -> Result<M
                 ),
             ));
         }
-        for key in MUST_AGREE {
-            let (a, b) = (first.attrs.get(*key), f.attrs.get(*key));
+        for key in must_agree() {
+            let (a, b) = (first.attrs.get(key), f.attrs.get(key));
             if a != b {
                 let show = |v: Option<&String>| v.map_or("(none)".to_string(), |s| s.clone());
                 return Err(Error::file(
@@ -391,7 +401,7 @@ pub fn merge(out: &Path, inputs: &[PathBuf], options: &MergeOptions) -> Result<M
         .map(|t| t.iter().map(|f| f.spp).min().unwrap_or(0))
         .collect();
     let spp: u64 = group_spp.iter().sum();
-    let mut attrs: Vec<(String, String)> = MUST_AGREE
+    let mut attrs: Vec<(String, String)> = must_agree()
         .iter()
         .filter_map(|k| first.attrs.get(*k).map(|v| (k.to_string(), v.clone())))
         .collect();

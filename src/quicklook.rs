@@ -92,7 +92,7 @@ pub fn scene_for(file: &Path) -> Result<(SceneDesc, Vec<String>)> {
             // Four to five times faster than photon mapping at this size
             // and sample count (3.5 s against 17 s for Blender's smoke
             // frame 25 on two cores), and unbiased at any count.
-            integrator: crate::scene::Integrator::Path,
+            integrator: crate::integrator::path::REGISTRATION.name.to_string(),
             output: format!("{stem}.exr").into(),
             preview: Some(format!("{stem}.png").into()),
             ..RenderDesc::default()
@@ -127,6 +127,7 @@ pub fn scene_for(file: &Path) -> Result<(SceneDesc, Vec<String>)> {
             velocity_scale: Vec3::ONE,
             velocity_unit: Default::default(),
         }],
+        warnings: Vec::new(),
     };
     Ok((desc, notes))
 }

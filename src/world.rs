@@ -1,5 +1,5 @@
-//! The world a render sees: a scene description (`crate::scene`, the only
-//! serde user) turned into loaded volumes, lights and a camera.
+//! The world a render sees: a scene description (`crate::scene`, the
+//! one that parses scene files) turned into loaded volumes, lights and a camera.
 
 use crate::camera::{Camera, Plane, Shutter};
 use crate::error::{Error, Result};

@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use vdbphoton::integrator::{render, Settings};
+use vdbphoton::render::passes::{render, Settings};
 use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::{make_camera, World};
 

@@ -16,7 +16,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use vdbphoton::image::{read_exr_rgb, ImageRgb};
-use vdbphoton::integrator::{self, Settings};
+use vdbphoton::render::passes::{self, Settings};
 use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::World;
 use vdbphoton::Rgb;
@@ -37,7 +37,7 @@ fn ours(scene: &str, real: Option<&Path>, spp: u32, seed: u64) -> ImageRgb {
     }
     let world = World::load(&desc).unwrap();
     let r = &desc.render;
-    let film = integrator::render(
+    let film = passes::render(
         &world,
         &Settings {
             width: r.width,
@@ -200,10 +200,7 @@ fn ours_with(scene: &str, real: Option<&Path>, choice: &str, spp: u32, seed: u64
             v.file = real.join("blender_smoke").join(name);
         }
     }
-    desc.render.integrator = match choice {
-        "path" => vdbphoton::scene::Integrator::Path,
-        _ => vdbphoton::scene::Integrator::Photon,
-    };
+    desc.render.integrator = choice.to_string();
     desc.render.seed = seed;
     let world = World::load(&desc).unwrap();
     let r = &desc.render;

@@ -15,11 +15,12 @@ use std::path::Path;
 use std::process::{Command, Output};
 use vdbphoton::camera::Camera;
 use vdbphoton::image::{read_exr, read_exr_rgb, Image};
-use vdbphoton::integrator::{camera_sample, Integrator, PathIntegrator, PhotonIntegrator};
+use vdbphoton::integrator::photon::PhotonSettings;
+use vdbphoton::integrator::{Integrator, PathIntegrator, PhotonIntegrator};
 use vdbphoton::light::Environment;
 use vdbphoton::medium::{ExtraGrids, Material, Media, Volume};
 use vdbphoton::phase::PhaseFunction;
-use vdbphoton::scene::PhotonSettings;
+use vdbphoton::render::passes::camera_sample;
 use vdbphoton::world::World;
 use vdbphoton::Rgb;
 

@@ -11,10 +11,10 @@ mod common;
 use common::chi2::{chi2_counts, chi2_test, chi2_test_with};
 use glam::{DAffine3, Vec2, Vec3};
 use vdbphoton::camera::Camera;
-use vdbphoton::integrator::{self, Settings};
 use vdbphoton::light::{BoundingSphere, EmittedRay, EnvMap, Environment, Light};
 use vdbphoton::medium::{ExtraGrids, Material, Media, Volume};
 use vdbphoton::phase::PhaseFunction;
+use vdbphoton::render::passes::{self, Settings};
 use vdbphoton::sampling::{coordinate_system, Domain, Rng};
 use vdbphoton::world::World;
 use vdbphoton::Rgb;
@@ -90,7 +90,7 @@ fn render_centre(world: &World, spp: u32) -> f32 {
         seed: 11,
         max_bounces: 1,
     };
-    integrator::render_pixel(world, &settings, 2, 2).0[0].x
+    passes::render_pixel(world, &settings, 2, 2).0[0].x
 }
 
 #[test]
@@ -310,7 +310,7 @@ fn furnace_under_a_uniform_map() {
         seed: 2,
         max_bounces: 100_000,
     };
-    let rgb = integrator::render(&world, &settings, &|_, _| {}).mean_rgb();
+    let rgb = passes::render(&world, &settings, &|_, _| {}).mean_rgb();
     for (i, p) in rgb.iter().enumerate() {
         assert!((p.x - 1.0).abs() < 0.08, "pixel {i}: {p}");
     }

@@ -8,13 +8,14 @@ use common::const_box;
 use glam::{DAffine3, DVec3, IVec3, Vec2, Vec3};
 use vdbphoton::camera::{Camera, Shutter};
 use vdbphoton::grid::{Grid, GridParts, Tile};
-use vdbphoton::integrator::{camera_sample, Integrator, PathIntegrator, PhotonIntegrator};
+use vdbphoton::integrator::photon::PhotonSettings;
+use vdbphoton::integrator::{Integrator, PathIntegrator, PhotonIntegrator};
 use vdbphoton::light::{Environment, Light};
 use vdbphoton::medium::{
     ExtraGrids, Material, Media, Principled, VelocityField, VelocityGrids, Volume,
 };
 use vdbphoton::phase::PhaseFunction;
-use vdbphoton::scene::PhotonSettings;
+use vdbphoton::render::passes::camera_sample;
 use vdbphoton::world::World;
 use vdbphoton::Rgb;
 
@@ -504,8 +505,9 @@ fn tiles_and_sequence_frames_are_the_pixels_of_the_blurred_frame() {
         let scene = |blur: bool| {
             format!(
                 "[render]\nwidth = 32\nheight = 24\nspp = 4\nintegrator = \"{integrator}\"\n\
-                 photons = 3000\naovs = true\nmotion_blur = {blur}\nshutter = 1.0\n\
+                 aovs = true\nmotion_blur = {blur}\nshutter = 1.0\n\
                  output = \"o_{{frame:04}}.exr\"\n\
+                 [render.photon]\nphotons = 3000\n\
                  [camera]\nframing = \"auto\"\n\
                  [[light]]\ntype = \"sun\"\ndirection = [0.3, -1.0, 1.0]\nirradiance = 2.0\n\
                  [[volume]]\nfile = \"p.vdb\"\ntemperature_grid = \"temperature\"\n\

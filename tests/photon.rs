@@ -13,11 +13,12 @@ mod common;
 use glam::{DAffine3, Vec3};
 use vdbphoton::camera::Camera;
 use vdbphoton::film::{Film, Region};
-use vdbphoton::integrator::{render_pass, Integrator, PathIntegrator, PhotonIntegrator};
+use vdbphoton::integrator::photon::{Estimate, PhotonSettings};
+use vdbphoton::integrator::{Integrator, PathIntegrator, PhotonIntegrator};
 use vdbphoton::light::{EnvMap, Environment, Light};
 use vdbphoton::medium::{ExtraGrids, Material, Media, Principled, Volume};
 use vdbphoton::phase::PhaseFunction;
-use vdbphoton::scene::{Estimate, PhotonSettings};
+use vdbphoton::render::passes::render_pass;
 use vdbphoton::world::World;
 use vdbphoton::{generate, Rgb};
 
@@ -719,12 +720,11 @@ fn same_image_on_one_and_two_threads() {
 #[test]
 fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
     use vdbphoton::render::choose_integrator;
-    use vdbphoton::scene::Integrator as Choice;
     let sun = || vec![Light::sun(Vec3::Z, Rgb::ONE, 0.0)];
     let thick = world(vec![cloud(raw(0.2, 15.0, 0.3))], sun(), Rgb::ZERO);
     let thin = world(vec![cloud(raw(0.05, 0.3, 0.3))], sun(), Rgb::ZERO);
-    assert_eq!(choose_integrator(&thick).0, Choice::Photon);
-    assert_eq!(choose_integrator(&thin).0, Choice::Path);
+    assert_eq!(choose_integrator(&thick).0, "photon");
+    assert_eq!(choose_integrator(&thin).0, "path");
 }
 
 /// The pilot measures the media's scattering order, and the automatic

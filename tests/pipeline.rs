@@ -68,9 +68,11 @@ width = 40
 height = 30
 spp = 3
 integrator = "{integrator}"
-photons = 3000
 output = "out/f_{{frame:04}}.exr"
 {render}
+
+[render.photon]
+photons = 3000
 
 [camera]
 framing = "auto"
@@ -779,7 +781,7 @@ fn new_users_get_one_clear_message_for_each_mistake() {
 fn tiles_are_spread_over_the_image_in_render_order() {
     use vdbphoton::film::Region;
     let (w, h) = (320u32, 240u32);
-    let order = vdbphoton::integrator::tiles(Region::full(w, h));
+    let order = vdbphoton::render::passes::tiles(Region::full(w, h));
     assert_eq!(order.len(), 20 * 15);
     let tenth = &order[..order.len() / 10];
     // The first tenth reaches every quarter of the image's height, and its

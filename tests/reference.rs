@@ -5,7 +5,7 @@
 mod common;
 
 use vdbphoton::image::{compare, read_exr_rgb, ImageRgb};
-use vdbphoton::integrator::{self, Settings};
+use vdbphoton::render::passes::{self, Settings};
 use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::World;
 
@@ -27,7 +27,7 @@ fn cloud96_matches_mitsuba_ground_truth() {
         seed: 7,
         max_bounces: r.max_bounces,
     };
-    let film = integrator::render(&world, &settings, &|_, _| {});
+    let film = passes::render(&world, &settings, &|_, _| {});
     let ours = ImageRgb {
         width: r.width as usize,
         height: r.height as usize,

@@ -2,19 +2,33 @@ use std::path::{Path, PathBuf};
 
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use vdbphoton::scene::{
-    CameraDesc, CameraPose, EnvironmentDesc, Estimate, Integrator, Lens, LightDesc, MaterialDesc,
-    MotionBlurDesc, PathSeg, PhaseDesc, PhotonSettings, Principled, RenderDesc, SceneDesc,
-    SceneError, SceneFormat, ShutterPosition,
+    CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MotionBlurDesc,
+    PathSeg, PhaseDesc, Principled, RenderDesc, SceneDesc, SceneError, SceneFormat,
+    ShutterPosition,
 };
 
 const VOL: &str = "[[volume]]\nfile = \"a.vdb\"\n";
 
+/// Scenes are loaded as the renderer loads them: with the integrators'
+/// check of their settings tables (`vdbphoton::render::load_scene`).
 fn toml(text: &str) -> Result<SceneDesc, SceneError> {
-    SceneDesc::from_str_named(text, SceneFormat::Toml, "/s", "scene.toml")
+    SceneDesc::from_str_checked(
+        text,
+        SceneFormat::Toml,
+        "/s",
+        "scene.toml",
+        &vdbphoton::integrator::check_settings,
+    )
 }
 
 fn json(text: &str) -> Result<SceneDesc, SceneError> {
-    SceneDesc::from_str_named(text, SceneFormat::Json, "/s", "scene.json")
+    SceneDesc::from_str_checked(
+        text,
+        SceneFormat::Json,
+        "/s",
+        "scene.json",
+        &vdbphoton::integrator::check_settings,
+    )
 }
 
 fn ok(text: &str) -> SceneDesc {
@@ -48,7 +62,7 @@ fn reference_scene() {
         (r.width, r.height, r.spp, r.seed, r.max_bounces),
         (256, 192, 64, 0, 256)
     );
-    assert_eq!(r.integrator, Integrator::Auto);
+    assert_eq!(r.integrator, "auto");
     assert_eq!(r.output, Path::new("/work/shared/data/reference/out.exr"));
     assert_eq!((r.preview.clone(), r.exposure, r.aovs), (None, 0.0, false));
     assert_eq!(
@@ -107,15 +121,8 @@ fn defaults_when_keys_are_absent() {
             spp: 64,
             seed: 0,
             max_bounces: 256,
-            integrator: Integrator::Auto,
-            photon: PhotonSettings {
-                photons: None,
-                k: None,
-                radius: None,
-                alpha: None,
-                step: None,
-                estimate: Estimate::Beam,
-            },
+            integrator: "auto".into(),
+            settings: Default::default(),
             output: PathBuf::from("/s/out.exr"),
             preview: None,
             exposure: 0.0,
@@ -497,32 +504,76 @@ fn error_spp_zero() {
 
 #[test]
 fn photon_keys() {
+    use vdbphoton::integrator::photon::{Estimate, PhotonSettings};
+    let want = PhotonSettings {
+        photons: Some(5000),
+        k: Some(12),
+        radius: Some(0.25),
+        alpha: Some(0.5),
+        step: Some(0.01),
+        estimate: Estimate::Point,
+    };
+    let keys =
+        "photons = 5000\nk = 12\nradius = 0.25\nalpha = 0.5\nstep = 0.01\nestimate = \"point\"\n";
+    // The photon integrator's own table.
     let s = ok(&format!(
-        "[render]\nintegrator = \"photon\"\nphotons = 5000\nk = 12\nradius = 0.25\nalpha = 0.5\nstep = 0.01\nestimate = \"point\"\n{VOL}"
+        "[render]\nintegrator = \"photon\"\n[render.photon]\n{keys}{VOL}"
     ));
-    assert_eq!(s.render.integrator, Integrator::Photon);
-    assert_eq!(
-        s.render.photon,
-        PhotonSettings {
-            photons: Some(5000),
-            k: Some(12),
-            radius: Some(0.25),
-            alpha: Some(0.5),
-            step: Some(0.01),
-            estimate: Estimate::Point,
-        }
+    assert_eq!(s.render.integrator, "photon");
+    assert_eq!(PhotonSettings::of(&s).unwrap(), want);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // Today's flat keys still work, with a deprecation warning.
+    let flat = ok(&format!("[render]\nintegrator = \"photon\"\n{keys}{VOL}"));
+    assert_eq!(PhotonSettings::of(&flat).unwrap(), want);
+    assert_eq!(flat.render.settings, s.render.settings);
+    assert_eq!(flat.warnings.len(), 1);
+    assert!(
+        flat.warnings[0].contains("[render.photon]") && flat.warnings[0].contains("deprecated"),
+        "{}",
+        flat.warnings[0]
     );
+    // JSON too.
+    let j = json(
+        r#"{"render": {"integrator": "photon", "photon": {"k": 12, "estimate": "point"}}, "volume": [{"file": "a.vdb"}]}"#,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let p = PhotonSettings::of(&j).unwrap();
+    assert_eq!((p.k, p.estimate), (Some(12), Estimate::Point));
     for (text, want) in [
-        ("photons = 0", "scene.toml:2: key 'photons' in [render]: must be in [1, 268435456] (photons per pass; each takes about 100 bytes), got 0"),
-        ("k = 0", "scene.toml:2: key 'k' in [render]: must be in [1, 1024], got 0"),
-        ("radius = -1.0", "scene.toml:2: key 'radius' in [render]: must be in (0, 340282350000000000000000000000000000000], got -1"),
-        ("alpha = 1.5", "scene.toml:2: key 'alpha' in [render]: must be in (0, 1], got 1.5"),
-        ("step = 0.0", "scene.toml:2: key 'step' in [render]: must be in (0, 340282350000000000000000000000000000000], got 0"),
+        ("photons = 0", "key 'photons' in [render.photon]: must be in [1, 268435456], got 0 (photons per pass; each takes about 100 bytes)"),
+        ("k = 0", "key 'k' in [render.photon]: must be in [1, 1024], got 0"),
+        ("k = 1.5", "key 'k' in [render.photon]: must be an integer, got a number"),
+        ("radius = -1.0", "key 'radius' in [render.photon]: must be in (0, 340282346638528860000000000000000000000], got -1"),
+        ("alpha = 1.5", "key 'alpha' in [render.photon]: must be in (0, 1], got 1.5"),
+        ("step = 0.0", "key 'step' in [render.photon]: must be in (0, 340282346638528860000000000000000000000], got 0"),
     ] {
-        assert_eq!(toml_err(&format!("[render]\n{text}\n{VOL}")), want);
+        // In the table: the line of the key.
+        assert_eq!(
+            toml_err(&format!("[render.photon]\n\n{text}\n{VOL}")),
+            format!("scene.toml:3: {want}")
+        );
+        // A flat key: its line in [render].
+        let flat = toml_err(&format!("[render]\n{text}\n{VOL}"));
+        assert!(flat.starts_with("scene.toml:2: key '"), "{flat}");
+        assert!(flat.ends_with(want.split_once(": ").unwrap().1), "{flat}");
     }
-    assert!(toml_err(&format!("[render]\nestimate = \"cone\"\n{VOL}")).contains("beam"));
-    assert!(toml_err(&format!("[render]\nintegrator = \"bdpt\"\n{VOL}")).contains("auto"));
+    assert!(toml_err(&format!("[render.photon]\nestimate = \"cone\"\n{VOL}")).contains("beam"));
+    let e = toml_err(&format!("[render]\nintegrator = \"bdpt\"\n{VOL}"));
+    assert!(
+        e.starts_with("scene.toml:2: ") && e.contains("auto, path, photon"),
+        "{e}"
+    );
+    let e = toml_err(&format!("[render.photon]\nkk = 3\n{VOL}"));
+    assert!(
+        e.starts_with("scene.toml:2: ") && e.contains("photons, k, radius"),
+        "{e}"
+    );
+    let e = toml_err(&format!("[render.bdpt]\nk = 3\n{VOL}"));
+    assert!(e.contains("no integrator 'bdpt'"), "{e}");
+    let e = toml_err(&format!("[render.path]\nk = 3\n{VOL}"));
+    assert!(e.contains("no settings"), "{e}");
+    let e = toml_err(&format!("[render]\nk = 3\n[render.photon]\nk = 4\n{VOL}"));
+    assert!(e.contains("given twice"), "{e}");
 }
 
 #[test]

@@ -8,11 +8,12 @@ mod common;
 use glam::{DAffine3, DVec3, IVec3, Vec2, Vec3};
 use vdbphoton::camera::Camera;
 use vdbphoton::grid::{Grid, GridParts, Tile};
-use vdbphoton::integrator::{self, path, Settings};
+use vdbphoton::integrator::path;
 use vdbphoton::light::{Environment, Light};
 use vdbphoton::medium::{ExtraGrids, MajorantGrid, Material, Media, Volume};
 use vdbphoton::phase::PhaseFunction;
 use vdbphoton::ray::Ray;
+use vdbphoton::render::passes::{self, Settings};
 use vdbphoton::sampling::{Domain, Rng};
 use vdbphoton::tracking::{optical_depth, sample_t_maj, transmittance};
 use vdbphoton::world::World;
@@ -523,7 +524,7 @@ fn single_scattering_in_a_box_matches_the_closed_form() {
         seed: 1,
         max_bounces: 1,
     };
-    let (acc, tr) = integrator::render_pixel(&world, &settings, 2, 2);
+    let (acc, tr) = passes::render_pixel(&world, &settings, 2, 2);
     let p = vdbphoton::phase::henyey_greenstein(0.0, g);
     let want = ss * p * e * (-st).exp() * (1.0 - (-2.0 * st).exp()) / st;
     let got = acc[0].x;
@@ -567,7 +568,7 @@ fn image_is_the_same_on_one_and_two_threads() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| integrator::render(&world, &settings, &|_, _| {}))
+            .install(|| passes::render(&world, &settings, &|_, _| {}))
     };
     let (a, b) = (run(1), run(2));
     // Film sums equal to the bit: equal means, transmittance, AOVs.
@@ -579,7 +580,7 @@ fn image_is_the_same_on_one_and_two_threads() {
         .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits)));
     assert!(a.iter().any(|p| p.x > 0.0));
     // A different seed gives a different image.
-    let c = integrator::render(
+    let c = passes::render(
         &world,
         &Settings {
             seed: 43,

@@ -8,7 +8,7 @@ use glam::DVec3;
 use std::path::Path;
 use std::process::Command;
 use vdbphoton::generate;
-use vdbphoton::vdb::check::{file_fields, FieldKind};
+use vdbphoton::vdb::{file_fields, FieldKind};
 use vdbphoton::vdb::{reference, write_vdb, AnyGrid, VdbFile};
 
 const BIN: &str = env!("CARGO_BIN_EXE_vdbphoton");

@@ -6,7 +6,7 @@
 //! Eight lanes share every instruction of the floor, the index walk and the
 //! interpolation, about twice the scalar batch's rate in cache (figures:
 //! `cargo bench --bench grid`; the measured ranges and what was tried are
-//! in ARCHITECTURE.md, "Batched lookups"). On grids larger than the caches
+//! in docs/performance.md, "Batched lookups"). On grids larger than the caches
 //! the loop waits on memory: its loads and prefetches, not its instruction
 //! count, set the rate there. A software pipeline runs the first pass
 //! (floor, block slots, prefetches) [`AHEAD`] lane sets before the second

@@ -77,6 +77,12 @@ pub enum ImageError {
     InvalidArgument(String),
 }
 
+impl From<ImageError> for crate::error::Error {
+    fn from(e: ImageError) -> Self {
+        crate::error::Error::Image(e.to_string())
+    }
+}
+
 /// Make an arbitrary message fit on one line.
 pub(crate) fn one_line(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")

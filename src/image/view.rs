@@ -88,6 +88,7 @@
 //! blocked on the [`OnceLock`] could be stolen by the building thread and
 //! re-enter the initialisation.
 
+use glam::{DMat3, DVec3};
 use std::sync::OnceLock;
 
 use crate::Rgb;
@@ -234,36 +235,29 @@ fn lg2_alloc(x: f32, lo: f32, scale: f32) -> f32 {
     (x.max(f32::MIN_POSITIVE).log2() - lo) * scale
 }
 
+/// A 3x3 matrix as colour science writes it, row by row.
 type M3 = [[f64; 3]; 3];
 
-fn mul(m: &M3, v: [f64; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
+/// `rows` as a glam matrix (glam stores columns).
+fn mat(rows: &M3) -> DMat3 {
+    DMat3::from_cols_array_2d(rows).transpose()
 }
 
-fn mul_m(a: &M3, b: &M3) -> M3 {
-    [0, 1, 2].map(|i| [0, 1, 2].map(|j| a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j]))
-}
-
-fn inverse(m: &M3) -> M3 {
-    let c = |i: usize, j: usize| {
-        let (i1, i2, j1, j2) = ((i + 1) % 3, (i + 2) % 3, (j + 1) % 3, (j + 2) % 3);
-        m[i1][j1] * m[i2][j2] - m[i1][j2] * m[i2][j1]
-    };
-    let det = m[0][0] * c(0, 0) + m[0][1] * c(0, 1) + m[0][2] * c(0, 2);
-    // The inverse is the transposed cofactor matrix over the determinant.
-    [0, 1, 2].map(|i| [0, 1, 2].map(|j| c(j, i) / det))
+/// `m · c` for a colour held as an array.
+fn apply(m: &DMat3, c: [f64; 3]) -> [f64; 3] {
+    (*m * DVec3::from(c)).to_array()
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    DVec3::from(a).dot(DVec3::from(b))
 }
 
 fn max3(c: [f64; 3]) -> f64 {
-    c[0].max(c[1]).max(c[2])
+    DVec3::from(c).max_element()
 }
 
 fn min3(c: [f64; 3]) -> f64 {
-    c[0].min(c[1]).min(c[2])
+    DVec3::from(c).min_element()
 }
 
 /// Jed Smith's tunable sigmoid with its toe and shoulder lengths at 0 and
@@ -451,15 +445,16 @@ fn agx_lattice() -> &'static Lattice {
 }
 
 fn build_agx_lattice() -> Lattice {
-    let eg_to_2020 = mul_m(&XYZ_TO_2020, &EGAMUT_TO_XYZ);
-    let bt2020_to_709 = mul_m(&XYZ_TO_709, &BT2020_TO_XYZ);
-    let outset = inverse(&AGX_OUTSET_INV);
+    let eg_to_2020 = mat(&XYZ_TO_2020) * mat(&EGAMUT_TO_XYZ);
+    let bt2020_to_709 = mat(&XYZ_TO_709) * mat(&BT2020_TO_XYZ);
+    let outset = mat(&AGX_OUTSET_INV).inverse();
+    let inset = mat(&AGX_INSET);
     // -10 to +6.5 stops around 0.18; pivot at 0.18, slope 2.4, power 1.5.
     let sigmoid = Sigmoid::new(10.0 / 16.5, 0.18f64.powf(1.0 / 2.4), 2.4, 1.5, 1.5);
     Lattice::build(AGX_N, |v| {
         let lin = v.map(|x| 0.18 * (25.0 * x - 10.0).exp2());
-        let c = guard_rail_2020(mul(&eg_to_2020, lin));
-        let c = mul(&AGX_INSET, c);
+        let c = guard_rail_2020(apply(&eg_to_2020, lin));
+        let c = apply(&inset, c);
         let hue_before = rgb_to_hsv(c)[0];
         let c = c.map(|x| {
             let x = ((x / 0.18).log2() + 10.0) / 16.5;
@@ -468,7 +463,7 @@ fn build_agx_lattice() -> Lattice {
         let [hue_after, s, val] = rgb_to_hsv(c);
         // A plain lerp, without wrapping round the hue circle.
         let c = hsv_to_rgb([0.6 * hue_before + 0.4 * hue_after, s, val]);
-        let c = guard_rail_709(mul(&bt2020_to_709, mul(&outset, c)));
+        let c = guard_rail_709(apply(&(bt2020_to_709 * outset), c));
         c.map(|x| {
             if x > 0.0 {
                 x.powf(1.0 / 2.4).min(1.0)
@@ -673,21 +668,20 @@ mod tests {
             [-0.5091526, 1.3333274, 0.1382844],
             [0.0957153, 0.0508974, 0.7879558],
         ];
-        let m = mul_m(&xyz_to_egamut, &inverse(&xyz_to_709));
-        for i in 0..3 {
-            for j in 0..3 {
-                assert!(close(m[i][j], AGX_709_TO_EGAMUT[i][j] as f64, 1e-7));
+        let m = mat(&xyz_to_egamut) * mat(&xyz_to_709).inverse();
+        for (i, row) in AGX_709_TO_EGAMUT.iter().enumerate() {
+            for (j, want) in row.iter().enumerate() {
+                assert!(close(m.row(i)[j], *want as f64, 1e-7));
             }
         }
     }
 
     /// RGB to XYZ from the xy chromaticities of the primaries and white.
-    fn npm(primaries: [[f64; 2]; 3], white: [f64; 2]) -> M3 {
-        let xyz = |[x, y]: [f64; 2]| [x / y, 1.0, (1.0 - x - y) / y];
-        let cols = primaries.map(xyz);
-        let p: M3 = [0, 1, 2].map(|i| [cols[0][i], cols[1][i], cols[2][i]]);
-        let s = mul(&inverse(&p), xyz(white));
-        [0, 1, 2].map(|i| [0, 1, 2].map(|j| p[i][j] * s[j]))
+    fn npm(primaries: [[f64; 2]; 3], white: [f64; 2]) -> DMat3 {
+        let xyz = |[x, y]: [f64; 2]| DVec3::new(x / y, 1.0, (1.0 - x - y) / y);
+        let [r, g, b] = primaries.map(xyz);
+        let p = DMat3::from_cols(r, g, b);
+        p * DMat3::from_diagonal(p.inverse() * xyz(white))
     }
 
     #[test]
@@ -695,10 +689,10 @@ mod tests {
         let d65 = [0.3127, 0.3290];
         let bt2020 = npm([[0.708, 0.292], [0.170, 0.797], [0.131, 0.046]], d65);
         let bt709 = npm([[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]], d65);
-        let m = mul_m(&inverse(&bt2020), &bt709);
-        for j in 0..3 {
-            let w = (0..3).map(|i| m[i][j] * AGX_LUM_2020[i]).sum::<f64>();
-            assert!(close(w, AGX_LUM_709[j], 1e-12), "{w}");
+        let m = bt2020.inverse() * bt709;
+        for (j, want) in AGX_LUM_709.iter().enumerate() {
+            let w = DVec3::from(AGX_LUM_2020).dot(m.col(j));
+            assert!(close(w, *want, 1e-12), "{w}");
         }
     }
 

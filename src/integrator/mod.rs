@@ -1,61 +1,29 @@
-//! Integrators behind one interface, and the pass loop that drives them.
+//! The integrator interface: a light-transport algorithm as the pass loop
+//! (`crate::render::passes`) drives it, and the registry of integrators
+//! the renderer knows.
 //!
-//! A render is a sequence of passes (pbrt-v4's `Integrator::Render`, cut
-//! into passes as progressive photon mapping needs): before a pass the
-//! integrator prepares what the whole pass shares
-//! ([`Integrator::begin_pass`]: the photon integrator traces a fresh photon
-//! map), then every pixel gets [`Integrator::samples_per_pass`] camera
-//! samples ([`Integrator::li`]), added to the film's sums. A sample count
-//! or a time budget decides how many passes run (`crate::render`).
-//!
-//! The film is cut into 16x16 tiles rendered in parallel (rayon), in a
-//! fixed shuffled order so that the share of tiles done is a fair measure
-//! of the work done (empty sky rows do not all come first). Every random
-//! number of a camera sample comes from a stream keyed by (seed, pixel,
-//! sample index) in the camera domain, never by the thread, so an image is
-//! identical whatever the thread count. Pixels use a box filter of one
-//! pixel (each sample at a uniformly random position in its pixel), as the
-//! reference renders do.
-//!
-//! To add an integrator: implement [`Integrator`] in a module of its own
-//! here, give it a name in `scene::Integrator`, and build it in
-//! `crate::render::make_integrator`.
+//! To add an integrator: write a module here that implements
+//! [`Integrator`] and defines its [`Registration`] (name, constructor,
+//! memory estimate, header keys, settings table), declare the module and
+//! add its registration to [`REGISTRY`]: one new file, and its `mod` line
+//! and registry line here. Nothing else names it (`auto`'s choice,
+//! `crate::render::choose_integrator`, picks between the two it knows).
 
 pub mod albedo;
+pub mod nee;
 pub mod path;
 pub mod photon;
 
-use crate::film::{Film, Region};
 use crate::ray::Ray;
-use crate::sampling::{mix64, Domain, Rng};
+use crate::sampling::{Domain, Rng};
 use crate::world::World;
-use crate::Rgb;
-use glam::Vec2;
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+
+use crate::error::Result;
+pub use crate::film::SampleResult;
+use crate::scene::{Param, Params, PathSeg, SceneDesc, ValidationError, AUTO_INTEGRATOR};
 
 pub use path::PathIntegrator;
 pub use photon::PhotonIntegrator;
-
-/// What one camera sample returns.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SampleResult {
-    /// Radiance along the camera ray.
-    pub l: Rgb,
-    /// Light that scattered once in the media (lights and environment).
-    pub direct: Rgb,
-    /// Light that scattered more than once.
-    pub indirect: Rgb,
-    /// Emission of the media (at any depth).
-    pub emission: Rgb,
-    /// Transmittance along the camera ray (mean over channels; alpha is 1
-    /// minus it).
-    pub transmittance: f32,
-    /// The denoising albedo along the camera ray (`crate::denoise`), when
-    /// the integrator was asked for it ([`Integrator::enable_albedo`]).
-    pub albedo: Rgb,
-}
 
 /// The key of a camera sample's random streams: (seed, pixel, sample
 /// index). An integrator that needs a second stream (the path tracer's
@@ -120,172 +88,180 @@ pub trait Integrator: Sync {
     }
 }
 
-/// Settings of a render with the reference path tracer (tests and
-/// benchmarks; the renderer proper is set up by `crate::render`).
-#[derive(Debug, Clone)]
-pub struct Settings {
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub seed: u64,
-    /// Real scattering events at most along a path.
-    pub max_bounces: u32,
+/// Everything the renderer knows of an integrator, in one place: its
+/// name, how to build it, what it costs in memory, which header keys two
+/// renders must share to be merged, and its settings table. The render,
+/// the command line, `merge` and the memory check read it from
+/// [`REGISTRY`].
+pub struct Registration {
+    /// Its name in scene files (`integrator = "..."`), on the command line
+    /// and in image headers (`vdbphoton/integrator`).
+    pub name: &'static str,
+    /// One line for `vdbphoton integrators` and `--help`.
+    pub about: &'static str,
+    /// The keys of its settings table `[render.NAME]`, each with a line
+    /// of documentation; any other key there is refused.
+    pub keys: &'static [(&'static str, &'static str)],
+    /// Checks its settings table (errors with paths relative to the table).
+    pub check: fn(&Params) -> std::result::Result<(), ValidationError>,
+    /// Builds it for a scene and its loaded world.
+    pub build: fn(&SceneDesc, &crate::world::World) -> Result<Box<dyn Integrator>>,
+    /// Bytes it needs at its peak beside the film and the grids (the
+    /// photon integrator's map), for the memory check before anything
+    /// loads.
+    pub peak_bytes: fn(&SceneDesc) -> u64,
+    /// Header attributes two renders must share to be merged (its settings
+    /// as it used them).
+    pub header_keys: &'static [&'static str],
 }
 
-const TILE: u32 = 16;
+/// The integrators the renderer knows. Adding one: a module here with
+/// its [`Integrator`] and its [`Registration`], its `mod` line above and
+/// one line below.
+pub const REGISTRY: &[&Registration] = &[&path::REGISTRATION, &photon::REGISTRATION];
 
-/// The stream number of pixel (x, y) of an image `width` wide.
-pub fn pixel_stream(x: u32, y: u32, width: u32) -> u64 {
-    y as u64 * width as u64 + x as u64
+/// The registration named `name`.
+pub fn find(name: &str) -> Option<&'static Registration> {
+    REGISTRY.iter().copied().find(|r| r.name == name)
 }
 
-/// One camera sample of pixel (x, y), sample `index`.
-pub fn camera_sample(
-    world: &World,
-    integrator: &dyn Integrator,
-    seed: u64,
-    x: u32,
-    y: u32,
-    index: u64,
-) -> SampleResult {
-    let key = SampleKey {
-        seed,
-        pixel: pixel_stream(x, y, world.camera.width()),
-        index,
-    };
-    let mut rng = key.rng(Domain::Camera);
-    let film = Vec2::new(x as f32, y as f32) + rng.next_vec2();
-    let ray = Ray::at_time(
-        world.camera.position(),
-        world.camera.direction(film),
-        integrator.sample_time(world, key),
-    );
-    integrator.li(world, &ray, &mut rng, key)
+/// Every name `integrator` takes: `auto` and the registered ones.
+pub fn names() -> Vec<&'static str> {
+    std::iter::once(AUTO_INTEGRATOR)
+        .chain(REGISTRY.iter().map(|r| r.name))
+        .collect()
 }
 
-/// The tiles of `region`, in a fixed shuffled order: the share of tiles
-/// done is then a fair measure of the work done (rows of empty sky do not
-/// all come first), which the progress and its ETA rely on.
-pub fn tiles(region: Region) -> Vec<Region> {
-    let mut t = Vec::new();
-    let mut y = region.y0;
-    while y < region.y1 {
-        let mut x = region.x0;
-        while x < region.x1 {
-            t.push(Region {
-                x0: x,
-                y0: y,
-                x1: (x + TILE).min(region.x1),
-                y1: (y + TILE).min(region.y1),
-            });
-            x += TILE;
-        }
-        y += TILE;
+/// The settings table of integrator `name` in a scene (empty when the
+/// scene has none).
+pub fn settings<'a>(desc: &'a SceneDesc, name: &str) -> std::borrow::Cow<'a, Params> {
+    match desc.render.settings.get(name) {
+        Some(p) => std::borrow::Cow::Borrowed(p),
+        None => std::borrow::Cow::Owned(Params::new()),
     }
-    t.sort_by_key(|r| mix64(((r.y0 as u64) << 32) | r.x0 as u64));
-    t
 }
 
-/// Runs pass `pass` of `integrator` over the film's region: every pixel
-/// gets the integrator's samples per pass, numbered on from the samples of
-/// the passes before. `progress(done, total)` is called after each tile
-/// (from worker threads). Call [`Integrator::begin_pass`] first.
-pub fn render_pass(
-    world: &World,
-    integrator: &dyn Integrator,
-    film: &mut Film,
-    seed: u64,
-    pass: u32,
-    progress: &(dyn Fn(usize, usize) + Sync),
-) {
-    let spp = integrator.samples_per_pass();
-    let first = pass as u64 * spp as u64;
-    let tiles = tiles(film.region);
-    let total = tiles.len();
-    let done = AtomicUsize::new(0);
-    // Each pixel lies in one tile, so its sums see its samples in order
-    // whichever thread adds a tile when: the film is the same bits on any
-    // number of threads.
-    let film = Mutex::new(film);
-    tiles.into_par_iter().for_each(|t| {
-        // A signal asked to stop: leave the rest (the caller sees it).
-        if crate::interrupt::requested().is_some() {
-            return;
-        }
-        let mut out = Vec::with_capacity(t.pixels() * spp as usize);
-        for y in t.y0..t.y1 {
-            for x in t.x0..t.x1 {
-                for s in 0..spp {
-                    out.push(camera_sample(
-                        world,
-                        integrator,
-                        seed,
-                        x,
-                        y,
-                        first + s as u64,
-                    ));
-                }
+/// Checks a scene's integrator and the integrators' settings tables:
+/// the name is `auto` or registered, every `[render.NAME]` table belongs
+/// to a registered integrator, holds only its keys, and passes its check.
+/// Error paths are the scene file's (`render.photon.k`), so the scene
+/// loader points at the line ([`crate::scene::SceneDesc::load_with`]).
+pub fn check_settings(desc: &SceneDesc) -> std::result::Result<(), ValidationError> {
+    let r = &desc.render;
+    let key = |k: &str| PathSeg::Key(k.to_owned());
+    if r.integrator != AUTO_INTEGRATOR && find(&r.integrator).is_none() {
+        return Err(ValidationError::new(
+            vec![key("render"), key("integrator")],
+            format!(
+                "there is no integrator '{}'; it is one of {}",
+                r.integrator,
+                names().join(", ")
+            ),
+        ));
+    }
+    for (name, params) in &r.settings {
+        let table = vec![key("render"), key(name)];
+        let Some(reg) = find(name) else {
+            return Err(ValidationError::new(
+                table,
+                format!(
+                    "there is no integrator '{name}': a table in [render] holds an integrator's settings ({})",
+                    REGISTRY
+                        .iter()
+                        .map(|r| format!("[render.{}]", r.name))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        };
+        for k in params.keys() {
+            if !reg.keys.iter().any(|(known, _)| known == k) {
+                let mut path = table.clone();
+                path.push(key(k));
+                return Err(ValidationError::new(
+                    path,
+                    if reg.keys.is_empty() {
+                        format!("unknown key: the {name} integrator has no settings")
+                    } else {
+                        format!(
+                            "unknown key; [render.{name}] takes {}",
+                            reg.keys.iter().map(|k| k.0).collect::<Vec<_>>().join(", ")
+                        )
+                    },
+                ));
             }
         }
-        {
-            let mut f = film.lock().unwrap_or_else(|e| e.into_inner());
-            let mut k = 0;
-            for y in t.y0..t.y1 {
-                for x in t.x0..t.x1 {
-                    for _ in 0..spp {
-                        f.add(x, y, &out[k]);
-                        k += 1;
-                    }
-                }
+        (reg.check)(params).map_err(|mut e| {
+            let mut path = table.clone();
+            path.append(&mut e.path);
+            e.path = path;
+            e
+        })?;
+    }
+    Ok(())
+}
+
+/// Readers of a settings table's values, with the scene's wording for
+/// what is wrong (for integrators' [`Registration::check`]).
+pub mod param {
+    use super::{Param, Params, PathSeg, ValidationError};
+
+    type Result<T> = std::result::Result<T, ValidationError>;
+
+    fn error(key: &str, message: String) -> ValidationError {
+        ValidationError::new(vec![PathSeg::Key(key.to_owned())], message)
+    }
+
+    /// An integer in `lo..=hi`, when given.
+    pub fn int(p: &Params, key: &str, lo: i64, hi: i64) -> Result<Option<i64>> {
+        let Some(v) = p.get(key) else { return Ok(None) };
+        let i = v
+            .as_i64()
+            .ok_or_else(|| error(key, format!("must be an integer, got {}", v.kind())))?;
+        if !(lo..=hi).contains(&i) {
+            return Err(error(key, format!("must be in [{lo}, {hi}], got {i}")));
+        }
+        Ok(Some(i))
+    }
+
+    /// A finite number above `lo` (excluded) and at most `hi`, when given.
+    pub fn number(p: &Params, key: &str, lo: f64, hi: f64) -> Result<Option<f64>> {
+        let Some(v) = p.get(key) else { return Ok(None) };
+        let x = v
+            .as_f64()
+            .ok_or_else(|| error(key, format!("must be a number, got {}", v.kind())))?;
+        if !(x.is_finite() && x > lo && x <= hi) {
+            return Err(error(key, format!("must be in ({lo}, {hi}], got {x}")));
+        }
+        Ok(Some(x))
+    }
+
+    /// One of `choices`, when given.
+    pub fn choice(p: &Params, key: &str, choices: &[&'static str]) -> Result<Option<&'static str>> {
+        let Some(v) = p.get(key) else { return Ok(None) };
+        let s = match v {
+            Param::Str(s) => s.as_str(),
+            other => {
+                return Err(error(
+                    key,
+                    format!(
+                        "must be one of {}, got {}",
+                        choices.join(", "),
+                        other.kind()
+                    ),
+                ))
             }
-        }
-        progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-    });
-}
-
-/// Renders the whole image with the reference path tracer at
-/// `settings.spp` samples per pixel (tests and benchmarks).
-/// `progress(done, total)` counts tiles over all passes.
-pub fn render(
-    world: &World,
-    settings: &Settings,
-    progress: &(dyn Fn(usize, usize) + Sync),
-) -> Film {
-    let integrator = PathIntegrator::new(settings.max_bounces);
-    let region = Region::full(settings.width, settings.height);
-    let mut film = Film::new(settings.width, settings.height, region, true);
-    let per_pass = tiles(region).len();
-    let total = per_pass * settings.spp as usize;
-    for pass in 0..settings.spp {
-        let before = pass as usize * per_pass;
-        render_pass(
-            world,
-            &integrator,
-            &mut film,
-            settings.seed,
-            pass,
-            &|d, _| progress(before + d, total),
-        );
+        };
+        choices
+            .iter()
+            .copied()
+            .find(|c| *c == s)
+            .map(Some)
+            .ok_or_else(|| {
+                error(
+                    key,
+                    format!("must be one of {}, got \"{s}\"", choices.join(", ")),
+                )
+            })
     }
-    film
-}
-
-/// Mean of `spp` path-traced samples of pixel (x, y): [L, direct, indirect,
-/// emission] and the transmittance along the camera ray (tests).
-pub fn render_pixel(world: &World, settings: &Settings, x: u32, y: u32) -> ([Rgb; 4], f32) {
-    let integrator = PathIntegrator::new(settings.max_bounces);
-    let mut acc = [Rgb::ZERO; 4];
-    let mut tr = 0.0f32;
-    for s in 0..settings.spp {
-        let r = camera_sample(world, &integrator, settings.seed, x, y, s as u64);
-        if r.l.is_finite() {
-            acc[0] += r.l;
-            acc[1] += r.direct;
-            acc[2] += r.indirect;
-            acc[3] += r.emission;
-        }
-        tr += r.transmittance;
-    }
-    let inv = 1.0 / settings.spp as f32;
-    (acc.map(|a| a * inv), tr * inv)
 }

@@ -23,6 +23,7 @@
 //! - Russian roulette after three scattering events once the throughput is
 //!   below [`RR_THRESHOLD`]; `max_bounces` real scattering events at most.
 
+use super::nee::direct_light;
 use super::{Integrator, SampleKey, SampleResult};
 use crate::light::Light;
 use crate::ray::Ray;
@@ -80,6 +81,18 @@ impl Integrator for PathIntegrator {
     }
 }
 
+/// The path tracer in the registry: no settings of its own (it takes
+/// `max_bounces` from `[render]`, as every integrator does).
+pub const REGISTRATION: super::Registration = super::Registration {
+    name: "path",
+    about: "the reference volumetric path tracer (unbiased; thin media, emission, sky light)",
+    keys: &[],
+    check: |_| Ok(()),
+    build: |desc, _| Ok(Box::new(PathIntegrator::new(desc.render.max_bounces))),
+    peak_bytes: |_| 0,
+    header_keys: &[],
+};
+
 /// Scattering events after which Russian roulette starts.
 const RR_DEPTH: u32 = 3;
 
@@ -91,71 +104,6 @@ const RR_DEPTH: u32 = 3;
 /// 0.5 → 3.00e-3, 0.25 → 3.09e-3, 0.1 → 3.34e-3; 0.25 keeps most of the
 /// variance gain of weighting (relMSE 2.17e-4 against 3.30e-4 with 1).
 pub const RR_THRESHOLD: f32 = 0.25;
-
-/// Light arriving at `p` (at `time`) along each light's sample, times the
-/// phase function and the transmittance, for NEE from a scattering event.
-/// With
-/// `mis`, lights a phase-sampled ray can also hit are weighted by the power
-/// heuristic against phase sampling (the path tracer); without, the light
-/// sample is the whole estimate (the photon integrator's marcher, which
-/// samples no direction).
-pub(super) fn direct_light(
-    world: &World,
-    p: Vec3,
-    time: f32,
-    wo: Vec3,
-    phase: &crate::phase::PhaseFunction,
-    mis: bool,
-    rng: &mut Rng,
-) -> Rgb {
-    let media = &world.media;
-    let mut l = Rgb::ZERO;
-    for light in &world.lights {
-        let u = rng.next_vec2();
-        let Some(ls) = light.sample_li(p, u) else {
-            continue;
-        };
-        if ls.li.max_element() <= 0.0 {
-            continue;
-        }
-        let f = phase.eval(wo, ls.wi);
-        if f <= 0.0 {
-            continue;
-        }
-        let tr = tracking::transmittance(media, &Ray::at_time(p, ls.wi, time), ls.dist, rng);
-        if tr.max_element() <= 0.0 {
-            continue;
-        }
-        let w = if ls.is_delta || !mis {
-            1.0
-        } else {
-            power_heuristic(1, ls.pdf, 1, phase.pdf(wo, ls.wi))
-        };
-        l += ls.li * tr * (f * w / ls.pdf);
-    }
-    if !world.environment.is_black() {
-        if let Some((wi, le, pdf)) = world.environment.sample(rng.next_vec2()) {
-            if pdf > 0.0 && le.max_element() > 0.0 {
-                let f = phase.eval(wo, wi);
-                if f > 0.0 {
-                    let tr = tracking::transmittance(
-                        media,
-                        &Ray::at_time(p, wi, time),
-                        f32::INFINITY,
-                        rng,
-                    );
-                    let w = if mis {
-                        power_heuristic(1, pdf, 1, phase.pdf(wo, wi))
-                    } else {
-                        1.0
-                    };
-                    l += le * tr * (f * w / pdf);
-                }
-            }
-        }
-    }
-    l
-}
 
 /// Radiance that a phase-sampled ray leaving the volumes receives from the
 /// environment and the finite suns, MIS-weighted against light sampling.

@@ -34,9 +34,8 @@
 //! (from a pilot of 1/32 of the photons before the first pass), so the map
 //! stays the same size and the image stays deterministic.
 
-use super::path::direct_light;
-use super::{Integrator, SampleKey, SampleResult};
-use crate::error::Result;
+use super::nee::direct_light;
+use super::{param, Integrator, SampleKey, SampleResult};
 use crate::photon::beam::BeamMap;
 use crate::photon::emitter::Emitters;
 use crate::photon::importance::Importance;
@@ -44,6 +43,7 @@ use crate::photon::map::{density_radii, median, PointMap};
 use crate::photon::{self, Photon};
 use crate::ray::Ray;
 use crate::sampling::{radical_inverse_2, roulette, Domain, Rng};
+use crate::scene::{Params, SceneDesc, ValidationError};
 use crate::world::World;
 use crate::Rgb;
 use glam::Vec3;
@@ -71,7 +71,8 @@ impl Estimate {
     }
 }
 
-/// Settings of the photon integrator (`[render]` keys), with their defaults.
+/// Settings of the photon integrator (its table `[render.photon]`), with
+/// their defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PhotonSettings {
     /// Photons emitted per pass (`photons`); `None`: [`auto_photons`] of
@@ -107,6 +108,86 @@ impl Default for PhotonSettings {
     }
 }
 
+/// Most photons a pass may emit: 2^28 (a pass's photon map then takes tens
+/// of GiB; the render checks what the machine has before it starts).
+pub const MAX_PHOTONS: u32 = 1 << 28;
+
+/// Bytes a stored photon takes at the peak of a pass (the photon, its
+/// radius, its box while the BVH is built, the BVH and the reordered copy;
+/// `cargo bench --bench photon` measured 128 bytes after the build).
+pub const PHOTON_PEAK_BYTES: u64 = 220;
+
+impl PhotonSettings {
+    /// The settings of a `[render.photon]` table, checked.
+    pub fn from_params(p: &Params) -> Result<Self, ValidationError> {
+        let d = PhotonSettings::default();
+        Ok(PhotonSettings {
+            photons: param::int(p, "photons", 1, MAX_PHOTONS as i64)
+                .map_err(|mut e| {
+                    e.message = format!(
+                        "{} (photons per pass; each takes about 100 bytes)",
+                        e.message
+                    );
+                    e
+                })?
+                .map(|n| n as u32),
+            k: param::int(p, "k", 1, 1024)?.map(|k| k as u32),
+            radius: param::number(p, "radius", 0.0, f32::MAX as f64)?.map(|r| r as f32),
+            alpha: param::number(p, "alpha", 0.0, 1.0)?.map(|a| a as f32),
+            step: param::number(p, "step", 0.0, f32::MAX as f64)?.map(|s| s as f32),
+            estimate: match param::choice(p, "estimate", &["beam", "point"])? {
+                None => d.estimate,
+                Some("point") => Estimate::Point,
+                Some(_) => Estimate::Beam,
+            },
+        })
+    }
+
+    /// The photon settings of a scene (defaults where it gives none).
+    /// Call on a checked scene (`super::check_settings`).
+    pub fn of(desc: &SceneDesc) -> crate::error::Result<Self> {
+        Self::from_params(&super::settings(desc, REGISTRATION.name))
+            .map_err(|e| crate::error::Error::Scene(format!("[render.photon] {e}")))
+    }
+}
+
+/// The photon integrator in the registry.
+pub const REGISTRATION: super::Registration = super::Registration {
+    name: "photon",
+    about: "volumetric photon mapping with a ray marcher, progressive over passes (dense, bright media)",
+    keys: &[
+        ("photons", "photons emitted per pass (default: half a photon per pixel, at least 10,000)"),
+        ("k", "neighbours that set a photon's radius (default: from the pilot)"),
+        ("radius", "largest radius in the first pass, world units (default: from the photon density)"),
+        ("alpha", "progressive radius reduction, in (0, 1] (default: from the pilot)"),
+        ("step", "march step, world units (default: the finest voxel)"),
+        ("estimate", "\"beam\" (default) or \"point\""),
+    ],
+    check: |p| PhotonSettings::from_params(p).map(|_| ()),
+    build: |desc, world| {
+        let r = &desc.render;
+        Ok(Box::new(PhotonIntegrator::new(
+            world,
+            PhotonSettings::of(desc)?,
+            r.max_bounces,
+            r.seed,
+        )?))
+    },
+    peak_bytes: |desc| {
+        let r = &desc.render;
+        PhotonSettings::of(desc).map_or(0, |s| {
+            photons_for(&s, r.width, r.height) as u64 * PHOTON_PEAK_BYTES
+        })
+    },
+    header_keys: &[
+        "vdbphoton/photons_per_pass",
+        "vdbphoton/k",
+        "vdbphoton/alpha",
+        "vdbphoton/estimate",
+        "vdbphoton/step",
+    ],
+};
+
 /// Photons per pass for a `width` x `height` frame when the scene gives
 /// none: half a photon per pixel of the whole frame (also for a tile, so
 /// that a tile's pixels are those of the full render), at least 10,000.
@@ -128,11 +209,12 @@ pub fn auto_photons(width: u32, height: u32) -> u32 {
 /// photon per pixel).
 const MAX_AUTO_PHOTONS: u32 = 1 << 22;
 
-impl PhotonSettings {
-    /// Photons per pass for a `width` x `height` frame.
-    pub fn photons_for(&self, width: u32, height: u32) -> u32 {
-        self.photons.unwrap_or_else(|| auto_photons(width, height))
-    }
+/// Photons per pass for a `width` x `height` frame: the settings' `photons`,
+/// or [`auto_photons`].
+pub fn photons_for(settings: &PhotonSettings, width: u32, height: u32) -> u32 {
+    settings
+        .photons
+        .unwrap_or_else(|| auto_photons(width, height))
 }
 
 /// Settings a render uses that suit dense and thin media differently:
@@ -321,7 +403,7 @@ impl PhotonIntegrator {
         settings: PhotonSettings,
         max_bounces: u32,
         seed: u64,
-    ) -> Result<Self> {
+    ) -> crate::error::Result<Self> {
         let finest = world
             .media
             .volumes()
@@ -333,7 +415,7 @@ impl PhotonIntegrator {
             .unwrap_or(if finest.is_finite() { finest } else { 1.0 });
         Ok(Self {
             settings,
-            photons: settings.photons_for(world.camera.width(), world.camera.height()),
+            photons: photons_for(&settings, world.camera.width(), world.camera.height()),
             max_bounces,
             seed,
             emitters: Emitters::new(world),

@@ -35,82 +35,12 @@
 use super::blackbody::blackbody_rgb_cycles;
 use super::MediumPoint;
 use crate::phase::PhaseFunction;
+pub use crate::scene::{BlackbodyFilter, Principled};
 use crate::scene::{MaterialDesc, PhaseDesc};
 use crate::Rgb;
 
 /// σ_SB · 10⁻⁶ / π, Cycles' blackbody intensity scale.
 const BLACKBODY_SCALE: f32 = 5.670_373e-8 * 1e-6 / std::f32::consts::PI;
-
-/// The inputs of Blender's Principled Volume node, with its names, units
-/// and defaults (the scene description uses this type too).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Principled {
-    pub density: f32,
-    pub color: Rgb,
-    pub absorption_color: Rgb,
-    /// Henyey–Greenstein g.
-    pub anisotropy: f32,
-    pub emission_strength: f32,
-    pub emission_color: Rgb,
-    pub blackbody_intensity: f32,
-    pub blackbody_tint: Rgb,
-    /// Kelvin.
-    pub temperature: f32,
-}
-
-impl Principled {
-    /// Blender's defaults.
-    pub const DEFAULT: Principled = Principled {
-        density: 1.0,
-        color: Rgb::splat(0.5),
-        absorption_color: Rgb::ZERO,
-        anisotropy: 0.0,
-        emission_strength: 0.0,
-        emission_color: Rgb::ONE,
-        blackbody_intensity: 0.0,
-        blackbody_tint: Rgb::ONE,
-        temperature: 1000.0,
-    };
-
-    /// The domain material of Blender's Quick Smoke with fire (Object >
-    /// Quick Effects > Quick Smoke, "Fire + Smoke"): Density 5, Blackbody
-    /// Intensity 1, the rest the node's defaults. Open values of a volume
-    /// that names a temperature or flame grid take these.
-    pub const QUICK_SMOKE_FIRE: Principled = Principled {
-        density: 5.0,
-        blackbody_intensity: 1.0,
-        ..Self::DEFAULT
-    };
-}
-
-impl Default for Principled {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
-
-/// How blackbody emission from a temperature grid is filtered between
-/// voxels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum BlackbodyFilter {
-    /// Interpolate the emitted radiance computed at each voxel: the mean of
-    /// Cycles' stochastic one-tap lookups, so images match Blender.
-    #[default]
-    Emission,
-    /// Interpolate the temperature, then compute its radiance: smoother
-    /// (and, since T⁴ is convex, dimmer) between hot and cold voxels.
-    Temperature,
-}
-
-impl BlackbodyFilter {
-    /// The spelling used in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            BlackbodyFilter::Emission => "emission",
-            BlackbodyFilter::Temperature => "temperature",
-        }
-    }
-}
 
 /// What the blackbody term sees at a point.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -5,14 +5,11 @@
 //! directory; nothing is normalised beyond that (directions keep the length
 //! the user wrote, mix weights are not renormalised).
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use glam::{DAffine3, DMat3, DVec3, Vec3};
-use serde::Deserialize;
 
-pub use crate::camera::SensorFit;
-pub use crate::integrator::photon::{Estimate, PhotonSettings};
-pub use crate::medium::{BlackbodyFilter, Principled};
 use crate::Rgb;
 
 /// A whole scene: what to render, from where, lit by what.
@@ -23,32 +20,81 @@ pub struct SceneDesc {
     pub lights: Vec<LightDesc>,
     pub environment: EnvironmentDesc,
     pub volumes: Vec<VolumeDesc>,
+    /// What the scene file said that still works but should change
+    /// (deprecated keys), for the render to report.
+    pub warnings: Vec<String>,
 }
 
-/// Which light-transport algorithm renders the scene.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Integrator {
-    /// Reference volumetric path tracer.
-    Path,
-    /// Volumetric photon mapping with a ray marcher.
-    Photon,
-    /// The photon integrator, unless the scene is one where the path tracer
-    /// wins (`crate::render::choose_integrator`).
-    #[default]
-    Auto,
+/// One value of an integrator's settings table (`[render.NAME]`), as the
+/// scene file wrote it. The scene knows no integrator: each integrator
+/// reads and checks its own table (`crate::integrator::Registration`), so
+/// adding one needs no change here.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Param {
+    Bool(bool),
+    Int(i64),
+    Float(f64),
+    Str(String),
 }
 
-impl Integrator {
-    /// The spelling used in scene files.
-    pub fn name(self) -> &'static str {
+impl Param {
+    /// The value as a number (an integer or a float).
+    pub fn as_f64(&self) -> Option<f64> {
         match self {
-            Integrator::Path => "path",
-            Integrator::Photon => "photon",
-            Integrator::Auto => "auto",
+            Param::Int(i) => Some(*i as f64),
+            Param::Float(f) => Some(*f),
+            _ => None,
+        }
+    }
+    /// The value as an integer.
+    pub fn as_i64(&self) -> Option<i64> {
+        match self {
+            Param::Int(i) => Some(*i),
+            _ => None,
+        }
+    }
+    /// The value as a string.
+    pub fn as_str(&self) -> Option<&str> {
+        match self {
+            Param::Str(s) => Some(s),
+            _ => None,
+        }
+    }
+    /// The value as a boolean.
+    pub fn as_bool(&self) -> Option<bool> {
+        match self {
+            Param::Bool(b) => Some(*b),
+            _ => None,
+        }
+    }
+    /// What the value is, for messages ("an integer", ...).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Param::Bool(_) => "a boolean",
+            Param::Int(_) => "an integer",
+            Param::Float(_) => "a number",
+            Param::Str(_) => "a string",
         }
     }
 }
+
+impl std::fmt::Display for Param {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Param::Bool(b) => write!(f, "{b}"),
+            Param::Int(i) => write!(f, "{i}"),
+            Param::Float(x) => write!(f, "{x}"),
+            Param::Str(s) => write!(f, "\"{s}\""),
+        }
+    }
+}
+
+/// An integrator's settings table, key by key.
+pub type Params = BTreeMap<String, Param>;
+
+/// The integrator name that lets the renderer choose
+/// (`crate::render::choose_integrator`).
+pub const AUTO_INTEGRATOR: &str = "auto";
 
 /// `[render]`. All fields are plain so the CLI can override them and call
 /// [`SceneDesc::validate`] again.
@@ -60,10 +106,12 @@ pub struct RenderDesc {
     pub spp: u32,
     pub seed: u64,
     pub max_bounces: u32,
-    pub integrator: Integrator,
-    /// The photon integrator's settings (`photons`, `k`, `radius`, `alpha`,
-    /// `step`, `estimate`).
-    pub photon: PhotonSettings,
+    /// The integrator's name (`integrator`): [`AUTO_INTEGRATOR`] or one of
+    /// `crate::integrator::REGISTRY`, checked there.
+    pub integrator: String,
+    /// The integrators' own settings, `[render.NAME]` tables by name
+    /// (today's flat photon keys in `[render]` land in `photon`).
+    pub settings: BTreeMap<String, Params>,
     /// EXR output, resolved against the scene file's directory.
     pub output: PathBuf,
     /// Optional PNG preview, resolved against the scene file's directory.
@@ -182,8 +230,8 @@ impl Default for RenderDesc {
             spp: 64,
             seed: 0,
             max_bounces: 256,
-            integrator: Integrator::Auto,
-            photon: PhotonSettings::default(),
+            integrator: AUTO_INTEGRATOR.to_string(),
+            settings: BTreeMap::new(),
             output: PathBuf::from("out.exr"),
             preview: None,
             exposure: 0.0,
@@ -450,4 +498,87 @@ pub fn affine_from_rows(m: [[f64; 4]; 4]) -> DAffine3 {
         DVec3::new(m[0][2], m[1][2], m[2][2]),
         DVec3::new(m[0][3], m[1][3], m[2][3]),
     )
+}
+
+/// The inputs of Blender's Principled Volume node, with its names, units
+/// and defaults (the optics in `crate::medium` compute with it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Principled {
+    pub density: f32,
+    pub color: Rgb,
+    pub absorption_color: Rgb,
+    /// Henyey–Greenstein g.
+    pub anisotropy: f32,
+    pub emission_strength: f32,
+    pub emission_color: Rgb,
+    pub blackbody_intensity: f32,
+    pub blackbody_tint: Rgb,
+    /// Kelvin.
+    pub temperature: f32,
+}
+
+impl Principled {
+    /// Blender's defaults.
+    pub const DEFAULT: Principled = Principled {
+        density: 1.0,
+        color: Rgb::splat(0.5),
+        absorption_color: Rgb::ZERO,
+        anisotropy: 0.0,
+        emission_strength: 0.0,
+        emission_color: Rgb::ONE,
+        blackbody_intensity: 0.0,
+        blackbody_tint: Rgb::ONE,
+        temperature: 1000.0,
+    };
+
+    /// The domain material of Blender's Quick Smoke with fire (Object >
+    /// Quick Effects > Quick Smoke, "Fire + Smoke"): Density 5, Blackbody
+    /// Intensity 1, the rest the node's defaults. Open values of a volume
+    /// that names a temperature or flame grid take these.
+    pub const QUICK_SMOKE_FIRE: Principled = Principled {
+        density: 5.0,
+        blackbody_intensity: 1.0,
+        ..Self::DEFAULT
+    };
+}
+
+impl Default for Principled {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// How blackbody emission from a temperature grid is filtered between
+/// voxels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BlackbodyFilter {
+    /// Interpolate the emitted radiance computed at each voxel: the mean of
+    /// Cycles' stochastic one-tap lookups, so images match Blender.
+    #[default]
+    Emission,
+    /// Interpolate the temperature, then compute its radiance: smoother
+    /// (and, since T⁴ is convex, dimmer) between hot and cold voxels.
+    Temperature,
+}
+
+impl BlackbodyFilter {
+    /// The spelling used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            BlackbodyFilter::Emission => "emission",
+            BlackbodyFilter::Temperature => "temperature",
+        }
+    }
+}
+
+/// Which image side the sensor spans (Blender's `sensor_fit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SensorFit {
+    /// `sensor_width` spans the longer side (Blender's default).
+    #[default]
+    Auto,
+    /// `sensor_width` spans the width.
+    Horizontal,
+    /// `sensor_height` spans the height.
+    Vertical,
 }

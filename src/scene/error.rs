@@ -71,6 +71,13 @@ pub fn split_path(path: &[PathSeg]) -> (String, Option<String>) {
         PathSeg::Index(_) if ARRAY_TABLES.contains(&top) => (format!("[[{top}]]"), &path[2..]),
         _ => (format!("[{top}]"), &path[1..]),
     };
+    // `[render.NAME]`: an integrator's settings table.
+    if top == "render" && rest.len() > 1 {
+        if let PathSeg::Key(sub) = &rest[0] {
+            section = format!("[render.{sub}]");
+            rest = &rest[1..];
+        }
+    }
     if top == "volume" && rest.len() > 1 {
         if let PathSeg::Key(sub) = &rest[0] {
             if VOLUME_SUBTABLES.contains(&sub.as_str()) {
@@ -282,5 +289,11 @@ pub(crate) fn rewrite_serde_message(msg: &str, path: &[PathSeg]) -> String {
         msg
     } else {
         format!("{}: {msg}", describe(path))
+    }
+}
+
+impl From<SceneError> for crate::error::Error {
+    fn from(e: SceneError) -> Self {
+        crate::error::Error::Scene(e.to_string())
     }
 }

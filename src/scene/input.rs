@@ -5,6 +5,7 @@
 //! point at the offending key. Optional keys are `Option`s; defaults live in
 //! one place, the conversion below.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Component, Path, PathBuf};
 
@@ -13,9 +14,9 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use super::desc::{
-    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, EnvironmentDesc, Estimate,
-    Integrator, LightDesc, MaterialDesc, MotionBlurDesc, PhaseDesc, PhotonSettings, Principled,
-    RenderDesc, SceneDesc, ShutterPosition, VelocityUnit, VolumeDesc,
+    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, EnvironmentDesc, LightDesc,
+    MaterialDesc, MotionBlurDesc, Param, Params, PhaseDesc, Principled, RenderDesc, SceneDesc,
+    ShutterPosition, VelocityUnit, VolumeDesc,
 };
 use super::desc::{CameraPose, Lens, SensorFit, VolumeBounds, AUTO_VIEW_DIRECTION};
 use super::error::{kp, PathSeg, ValidationError};
@@ -111,7 +112,7 @@ fn exact_matrix<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[[f64; 4]; 4]>
 #[serde(deny_unknown_fields, expecting = "a table")]
 pub(crate) struct SceneIn {
     #[serde(default)]
-    render: RenderIn,
+    pub(crate) render: RenderIn,
     #[serde(default)]
     camera: CameraIn,
     #[serde(default)]
@@ -124,19 +125,20 @@ pub(crate) struct SceneIn {
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table")]
-struct RenderIn {
+pub(crate) struct RenderIn {
     width: Option<u32>,
     height: Option<u32>,
     spp: Option<u32>,
     seed: Option<u64>,
     max_bounces: Option<u32>,
-    integrator: Option<Integrator>,
-    photons: Option<u32>,
-    k: Option<u32>,
-    radius: Option<f64>,
-    alpha: Option<f64>,
-    step: Option<f64>,
-    estimate: Option<EstimateIn>,
+    integrator: Option<String>,
+    // Deprecated: the photon integrator's settings, now `[render.photon]`.
+    photons: Option<ParamIn>,
+    k: Option<ParamIn>,
+    radius: Option<ParamIn>,
+    alpha: Option<ParamIn>,
+    step: Option<ParamIn>,
+    estimate: Option<ParamIn>,
     output: Option<String>,
     preview: Option<String>,
     exposure: Option<f64>,
@@ -147,6 +149,11 @@ struct RenderIn {
     shutter_position: Option<ShutterPositionIn>,
     fps: Option<f64>,
     denoise: Option<bool>,
+    /// The integrators' tables `[render.NAME]`, taken out of `[render]`
+    /// before serde reads it (`super::parse_toml`): their names are not
+    /// known here.
+    #[serde(skip)]
+    pub(crate) tables: BTreeMap<String, ParamsIn>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -164,12 +171,49 @@ enum VelocityUnitIn {
     Frame,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(rename_all = "lowercase")]
-enum EstimateIn {
-    Beam,
-    Point,
+/// A value of an integrator's settings table: a number, a string or a
+/// boolean (the integrator checks which it wants).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ParamIn(pub Param);
+
+impl<'de> Deserialize<'de> for ParamIn {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ParamIn;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number, a string or a boolean")
+            }
+            fn visit_bool<E: de::Error>(self, v: bool) -> Result<ParamIn, E> {
+                Ok(ParamIn(Param::Bool(v)))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<ParamIn, E> {
+                Ok(ParamIn(Param::Int(v)))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<ParamIn, E> {
+                i64::try_from(v)
+                    .map(|v| ParamIn(Param::Int(v)))
+                    .map_err(|_| E::custom(format!("{v} is too large")))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<ParamIn, E> {
+                Ok(ParamIn(Param::Float(v)))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<ParamIn, E> {
+                Ok(ParamIn(Param::Str(v.to_owned())))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
+
+/// An integrator's settings table `[render.NAME]` as read.
+pub(crate) type ParamsIn = BTreeMap<String, ParamIn>;
+
+/// The photon integrator's keys that `[render]` held before integrators
+/// had tables of their own: still read, into `[render.photon]`, with a
+/// deprecation warning.
+pub(crate) const FLAT_PHOTON_KEYS: [&str; 6] =
+    ["photons", "k", "radius", "alpha", "step", "estimate"];
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table")]
@@ -435,20 +479,72 @@ impl SceneIn {
             .enumerate()
             .map(|(i, v)| v.into_desc(base, &kp!["volume", i]))
             .collect::<Conv<Vec<_>>>()?;
+        let mut warnings = Vec::new();
         Ok(SceneDesc {
-            render: self.render.into_desc(base)?,
+            render: self.render.into_desc(base, &mut warnings)?,
             camera: self.camera.into_desc()?,
             lights,
             environment: self.environment.into_desc(base)?,
             volumes,
+            warnings,
         })
     }
 }
 
 impl RenderIn {
-    fn into_desc(self, base: &Path) -> Conv<RenderDesc> {
+    /// The flat photon keys this `[render]` gives (deprecated).
+    pub(crate) fn flat_photon_keys(&self) -> Vec<&'static str> {
+        let given = [
+            self.photons.is_some(),
+            self.k.is_some(),
+            self.radius.is_some(),
+            self.alpha.is_some(),
+            self.step.is_some(),
+            self.estimate.is_some(),
+        ];
+        FLAT_PHOTON_KEYS
+            .iter()
+            .zip(given)
+            .filter(|(_, g)| *g)
+            .map(|(k, _)| *k)
+            .collect()
+    }
+
+    fn into_desc(self, base: &Path, warnings: &mut Vec<String>) -> Conv<RenderDesc> {
         let d = RenderDesc::default();
         let output = self.output.as_deref().unwrap_or("out.exr");
+        let flat = self.flat_photon_keys();
+        let mut settings: BTreeMap<String, Params> = self
+            .tables
+            .into_iter()
+            .map(|(name, t)| (name, t.into_iter().map(|(k, v)| (k, v.0)).collect()))
+            .collect();
+        if !flat.is_empty() {
+            let photon = settings.entry("photon".to_owned()).or_default();
+            let values = [
+                self.photons,
+                self.k,
+                self.radius,
+                self.alpha,
+                self.step,
+                self.estimate,
+            ];
+            for (key, value) in FLAT_PHOTON_KEYS.iter().zip(values) {
+                let Some(value) = value else { continue };
+                if photon.contains_key(*key) {
+                    return Err(ValidationError::new(
+                        kp!["render", *key],
+                        "given twice: here and in [render.photon]; keep the one in [render.photon]",
+                    ));
+                }
+                photon.insert((*key).to_owned(), value.0);
+            }
+            warnings.push(format!(
+                "[render] {}: the photon integrator's settings now have a table of their own; move {} to [render.photon] (keys in [render] are deprecated and will stop working)",
+                flat.join(", "),
+                if flat.len() == 1 { "it" } else { "them" }
+            ));
+        }
         Ok(RenderDesc {
             width: self.width.unwrap_or(d.width),
             height: self.height.unwrap_or(d.height),
@@ -456,21 +552,7 @@ impl RenderIn {
             seed: self.seed.unwrap_or(d.seed),
             max_bounces: self.max_bounces.unwrap_or(d.max_bounces),
             integrator: self.integrator.unwrap_or(d.integrator),
-            photon: {
-                let p = d.photon;
-                PhotonSettings {
-                    photons: self.photons.or(p.photons),
-                    k: self.k.or(p.k),
-                    radius: self.radius.map(|r| r as f32).or(p.radius),
-                    alpha: self.alpha.map(|a| a as f32).or(p.alpha),
-                    step: self.step.map(|s| s as f32).or(p.step),
-                    estimate: match self.estimate {
-                        None => p.estimate,
-                        Some(EstimateIn::Beam) => Estimate::Beam,
-                        Some(EstimateIn::Point) => Estimate::Point,
-                    },
-                }
-            },
+            settings,
             output: resolve(base, output, kp!["render", "output"])?,
             preview: match self.preview {
                 Some(p) => Some(resolve(base, &p, kp!["render", "preview"])?),
@@ -506,6 +588,26 @@ impl RenderIn {
 
 impl CameraIn {
     fn into_desc(self) -> Conv<CameraDesc> {
+        let pose = self.pose()?;
+        if self.direction.is_some() && !matches!(pose, CameraPose::Auto { .. }) {
+            return Err(ValidationError::new(
+                with(&kp!["camera"], "direction"),
+                "only used with framing = \"auto\"",
+            ));
+        }
+        Ok(CameraDesc {
+            pose,
+            lens: self.lens()?,
+            shift: [
+                self.shift_x.unwrap_or(0.0) as f32,
+                self.shift_y.unwrap_or(0.0) as f32,
+            ],
+        })
+    }
+
+    /// Where the camera is: one of four forms (look-at, a matrix,
+    /// Blender's location and rotation, automatic framing), never two.
+    fn pose(&self) -> Conv<CameraPose> {
         let d = CameraDesc::default();
         let path = kp!["camera"];
         // Keys that say where the camera is, by the form they belong to.
@@ -524,7 +626,7 @@ impl CameraIn {
                 format!("cannot be combined with '{a}' (the camera is placed by one of: position/look_at/up, matrix, location/rotation, framing = \"auto\")"),
             ))
         };
-        let pose = if let Some(m) = self.matrix {
+        Ok(if let Some(m) = self.matrix {
             if let Some(k) = first(&look_at_keys).or(first(&blender_keys)) {
                 return clash("matrix", k);
             }
@@ -583,20 +685,22 @@ impl CameraIn {
                 look_at: self.look_at.map_or(look_at, v3),
                 up: self.up.map_or(up, v3),
             }
-        };
-        if self.direction.is_some() && !matches!(pose, CameraPose::Auto { .. }) {
-            return Err(ValidationError::new(
-                with(&path, "direction"),
-                "only used with framing = \"auto\"",
-            ));
-        }
+        })
+    }
+
+    /// The lens: a vertical field of view, or Blender's focal length and
+    /// sensor (not both).
+    fn lens(&self) -> Conv<Lens> {
+        let d = CameraDesc::default();
+        let path = kp!["camera"];
+        let first = |keys: &[(bool, &'static str)]| keys.iter().find(|k| k.0).map(|k| k.1);
         let sensor_keys = [
             (self.focal_length.is_some(), "focal_length"),
             (self.sensor_width.is_some(), "sensor_width"),
             (self.sensor_height.is_some(), "sensor_height"),
             (self.sensor_fit.is_some(), "sensor_fit"),
         ];
-        let lens = match (self.vfov, first(&sensor_keys)) {
+        Ok(match (self.vfov, first(&sensor_keys)) {
             (Some(_), Some(k)) => {
                 return Err(ValidationError::new(
                     with(&path, k),
@@ -615,14 +719,6 @@ impl CameraIn {
                 },
             },
             (None, None) => d.lens,
-        };
-        Ok(CameraDesc {
-            pose,
-            lens,
-            shift: [
-                self.shift_x.unwrap_or(0.0) as f32,
-                self.shift_y.unwrap_or(0.0) as f32,
-            ],
         })
     }
 }

@@ -1,6 +1,8 @@
 //! Scene files: parse a TOML (or JSON) scene into plain description structs
-//! and validate them. This is the only module of the renderer that uses
-//! serde; it loads no VDB data and renders nothing.
+//! and validate them. This is the only module of the renderer that
+//! deserialises with serde; it loads no VDB data, renders nothing and
+//! knows no integrator (their settings tables stay generic values, which
+//! each integrator checks: `crate::integrator::check_settings`).
 //!
 //! ```no_run
 //! use vdbphoton::scene::SceneDesc;
@@ -28,15 +30,19 @@ pub const MAX_SCENE_BYTES: u64 = 1 << 20;
 
 pub use desc::{
     affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, CameraPose,
-    EnvironmentDesc, Estimate, Integrator, Lens, LightDesc, MaterialDesc, MotionBlurDesc,
-    PhaseDesc, PhotonSettings, Principled, RenderDesc, SceneDesc, SensorFit, ShutterPosition,
-    VelocityUnit, VolumeBounds, VolumeDesc, AUTO_VIEW_DIRECTION,
+    EnvironmentDesc, Lens, LightDesc, MaterialDesc, MotionBlurDesc, Param, Params, PhaseDesc,
+    Principled, RenderDesc, SceneDesc, SensorFit, ShutterPosition, VelocityUnit, VolumeBounds,
+    VolumeDesc, AUTO_INTEGRATOR, AUTO_VIEW_DIRECTION,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
 pub use validate::{MAX_PIXELS, MAX_SHUTTER};
 
 use input::SceneIn;
 use source_map::SourceMap;
+
+/// A check of a parsed scene beyond its own rules (see
+/// [`SceneDesc::load_with`]).
+pub type Check<'a> = &'a dyn Fn(&SceneDesc) -> Result<(), ValidationError>;
 
 /// Syntax of a scene file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -60,6 +66,15 @@ impl SceneDesc {
     /// resolved against the file's directory (made absolute). Error messages
     /// start with `path` as given.
     pub fn load(path: impl AsRef<Path>) -> Result<SceneDesc, SceneError> {
+        Self::load_with(path, &|_| Ok(()))
+    }
+
+    /// Like [`SceneDesc::load`], with one more check of the parsed scene
+    /// whose errors point at the scene file's lines as the scene's own do:
+    /// the renderer passes the integrators' check of their settings tables
+    /// (`crate::integrator::check_settings`), which this module cannot
+    /// know.
+    pub fn load_with(path: impl AsRef<Path>, check: Check) -> Result<SceneDesc, SceneError> {
         let path = path.as_ref();
         let file = path.display().to_string();
         if path.is_dir() {
@@ -102,7 +117,7 @@ impl SceneDesc {
         })?;
         let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
         let base = absolute.parent().unwrap_or(Path::new(""));
-        Self::from_str_named(&text, SceneFormat::from_path(path), base, &file)
+        Self::from_str_checked(&text, SceneFormat::from_path(path), base, &file, check)
     }
 
     /// Parses and validates scene text; relative paths are resolved against
@@ -122,6 +137,18 @@ impl SceneDesc {
         base_dir: impl AsRef<Path>,
         name: &str,
     ) -> Result<SceneDesc, SceneError> {
+        Self::from_str_checked(text, format, base_dir, name, &|_| Ok(()))
+    }
+
+    /// Like [`SceneDesc::from_str_named`], with one more check (as
+    /// [`SceneDesc::load_with`]).
+    pub fn from_str_checked(
+        text: &str,
+        format: SceneFormat,
+        base_dir: impl AsRef<Path>,
+        name: &str,
+        check: Check,
+    ) -> Result<SceneDesc, SceneError> {
         let (input, toml_map) = match format {
             SceneFormat::Toml => {
                 let (input, map) = parse_toml(text, name)?;
@@ -129,7 +156,14 @@ impl SceneDesc {
             }
             SceneFormat::Json => (parse_json(text, name)?, None),
         };
-        let invalid = |error: ValidationError| {
+        let flat = input.render.flat_photon_keys();
+        let invalid = |mut error: ValidationError| {
+            // A deprecated flat key's error names it where it was written.
+            if let [PathSeg::Key(r), PathSeg::Key(t), PathSeg::Key(k)] = &error.path[..] {
+                if r == "render" && t == "photon" && flat.contains(&k.as_str()) {
+                    error.path = vec![PathSeg::Key(r.clone()), PathSeg::Key(k.clone())];
+                }
+            }
             let json_map;
             let map = match &toml_map {
                 Some(map) => map,
@@ -146,6 +180,7 @@ impl SceneDesc {
         };
         let desc = input.into_desc(base_dir.as_ref()).map_err(invalid)?;
         desc.validate().map_err(invalid)?;
+        check(&desc).map_err(invalid)?;
         Ok(desc)
     }
 }
@@ -179,18 +214,42 @@ fn parse_toml<'a>(text: &'a str, name: &str) -> Result<(SceneIn, SourceMap<'a>),
         }
     };
     let map = SourceMap::toml(text, table.get_ref());
-    let input = serde::Deserialize::deserialize(toml::de::Deserializer::from(table)).map_err(
-        |e: toml::de::Error| {
-            let (path, line) = match e.span() {
-                Some(span) => (
-                    map.path_at(span.start),
-                    Some(map.line_of_offset(span.start)),
-                ),
-                None => (Vec::new(), None),
-            };
-            parse_error(line, error::rewrite_serde_message(e.message(), &path))
-        },
-    )?;
+    let serde_error = |e: toml::de::Error| {
+        let (path, line) = match e.span() {
+            Some(span) => (
+                map.path_at(span.start),
+                Some(map.line_of_offset(span.start)),
+            ),
+            None => (Vec::new(), None),
+        };
+        parse_error(line, error::rewrite_serde_message(e.message(), &path))
+    };
+    // The tables inside [render] are integrators' settings, whose names
+    // only the integrators know: read apart, each as a table of values.
+    let mut table = table;
+    let mut tables = Vec::new();
+    if let Some(render) = table.get_mut().get_mut("render") {
+        if let toml::de::DeValue::Table(render) = render.get_mut() {
+            let names: Vec<String> = render
+                .iter()
+                .filter(|(_, v)| v.get_ref().is_table())
+                .map(|(k, _)| k.get_ref().to_string())
+                .collect();
+            for name in names {
+                if let Some(value) = render.remove(name.as_str()) {
+                    tables.push((name, value));
+                }
+            }
+        }
+    }
+    let mut input: SceneIn = serde::Deserialize::deserialize(toml::de::Deserializer::from(table))
+        .map_err(serde_error)?;
+    for (name, value) in tables {
+        let params: input::ParamsIn =
+            serde::Deserialize::deserialize(toml::de::ValueDeserializer::from(value))
+                .map_err(serde_error)?;
+        input.render.tables.insert(name, params);
+    }
     Ok((input, map))
 }
 
@@ -205,6 +264,38 @@ fn parse_json(text: &str, name: &str) -> Result<SceneIn, SceneError> {
             line: Some(source_map::line_of_offset(text, start)),
             message: "invalid JSON scene: the top level must be an object { ... }".to_owned(),
         });
+    }
+    // The objects inside "render" are integrators' settings (as for TOML):
+    // read apart. Scenes without any keep serde_json's positions.
+    if let Ok(serde_json::Value::Object(mut top)) = serde_json::from_str::<serde_json::Value>(text)
+    {
+        if let Some(serde_json::Value::Object(render)) = top.get_mut("render") {
+            let names: Vec<String> = render
+                .iter()
+                .filter(|(_, v)| v.is_object())
+                .map(|(k, _)| k.clone())
+                .collect();
+            if !names.is_empty() {
+                let data_error = |e: serde_json::Error, path: &[PathSeg]| SceneError::Parse {
+                    file: name.to_owned(),
+                    line: None,
+                    message: one_line(&error::rewrite_serde_message(&e.to_string(), path)),
+                };
+                let mut tables = Vec::new();
+                for n in names {
+                    if let Some(v) = render.remove(&n) {
+                        let params: input::ParamsIn = serde_json::from_value(v).map_err(|e| {
+                            data_error(e, &[PathSeg::Key("render".into()), PathSeg::Key(n.clone())])
+                        })?;
+                        tables.push((n, params));
+                    }
+                }
+                let mut input: SceneIn = serde_json::from_value(serde_json::Value::Object(top))
+                    .map_err(|e| data_error(e, &[]))?;
+                input.render.tables.extend(tables);
+                return Ok(input);
+            }
+        }
     }
     serde_json::from_str(text).map_err(|e| {
         let full = e.to_string();

@@ -228,27 +228,6 @@ impl SceneDesc {
         if r.spp < 1 {
             return err(p("spp"), format!("must be >= 1, got {}", r.spp));
         }
-        let ph = &r.photon;
-        if let Some(n) = ph.photons.filter(|n| !(1..=MAX_PHOTONS).contains(n)) {
-            return err(
-                p("photons"),
-                format!(
-                    "must be in [1, {MAX_PHOTONS}] (photons per pass; each takes about 100 bytes), got {n}"
-                ),
-            );
-        }
-        if let Some(k) = ph.k.filter(|k| !(1..=1024).contains(k)) {
-            return err(p("k"), format!("must be in [1, 1024], got {k}"));
-        }
-        if let Some(radius) = ph.radius {
-            in_range(&p("radius"), radius, (0.0, false), (f32::MAX, true))?;
-        }
-        if let Some(alpha) = ph.alpha {
-            in_range(&p("alpha"), alpha, (0.0, false), (1.0, true))?;
-        }
-        if let Some(step) = ph.step {
-            in_range(&p("step"), step, (0.0, false), (f32::MAX, true))?;
-        }
         if r.output.as_os_str().is_empty() {
             return err(p("output"), "path must not be empty");
         }
@@ -412,10 +391,6 @@ fn validate_light(path: &[PathSeg], light: &LightDesc) -> Check {
 /// sizes would fail to allocate, and an allocation failure aborts the
 /// process instead of reporting an error.
 pub const MAX_PIXELS: u64 = 1 << 27;
-
-/// Most photons a pass may emit: 2^28 (a pass's photon map then takes tens
-/// of GiB; the render checks what the machine has before it starts).
-pub const MAX_PHOTONS: u32 = 1 << 28;
 
 fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
     let k = |key| with(path, key);

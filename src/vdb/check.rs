@@ -35,6 +35,7 @@
 //! Only file format 222 and later (OpenVDB 2.0 on, 2013) are walked; the
 //! header check refuses older files.
 
+pub use super::field::{Field, FieldKind};
 use glam::IVec3;
 
 const COMPRESS_ZIP: u32 = 0x1;
@@ -83,39 +84,6 @@ impl ValueKind {
             ValueKind::Vec3s => 6,
         }
     }
-}
-
-/// What a field of the file is, for a fuzzer that wants to damage lengths
-/// and counts rather than random bytes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum FieldKind {
-    /// A count of entries (metadata entries, root tiles or children, buffer
-    /// count, the grid count).
-    Count,
-    /// A string's or a metadata value's length.
-    Length,
-    /// A grid's compression flags.
-    Flags,
-    /// A grid descriptor's offset.
-    Offset,
-    /// A node's mask-compression metadata byte.
-    NodeMeta,
-    /// The signed length before a compressed block.
-    BlockLength,
-    /// A Blosc header's uncompressed, block and compressed sizes.
-    BloscSizes,
-    /// A child or value mask.
-    Mask,
-    /// A root tile's or child's origin.
-    Origin,
-}
-
-/// One field: where it is in the file, how many bytes, what it is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Field {
-    pub offset: u64,
-    pub size: u32,
-    pub kind: FieldKind,
 }
 
 /// What the head of a grid (flags, metadata, transform) says.
@@ -742,43 +710,38 @@ pub fn check_grid(
     Ok((head, tree))
 }
 
-/// Every length, count, offset, flag and mask of a file that the header
-/// check and the grid walk read, in file order where possible: for a
-/// fuzzer, which damages these rather than random bytes. Best effort: a
-/// grid that fails its walk contributes the fields before the failure.
-pub fn file_fields(bytes: &[u8]) -> Vec<Field> {
-    let mut out = Vec::new();
-    let Ok(h) = super::header::parse(&mut { bytes }, bytes.len() as u64) else {
-        return out;
+/// The fields the walk of one grid reads (`b`: the grid's bytes, from
+/// `grid_pos` in the file, its data block at `block_pos`), appended to
+/// `out` up to where the walk fails (`crate::vdb::file_fields`).
+pub fn grid_fields(
+    b: &[u8],
+    grid_pos: u64,
+    block_pos: u64,
+    type_name: &str,
+    instanced: bool,
+    out: &mut Vec<Field>,
+) {
+    let mut c = Cur {
+        b,
+        pos: 0,
+        base: grid_pos,
+        fields: Some(out),
     };
-    out.extend(h.fields.iter().copied());
-    for d in &h.grids {
-        let Some(b) = bytes.get(d.grid_pos as usize..d.end_pos as usize) else {
-            continue;
-        };
-        let mut c = Cur {
-            b,
-            pos: 0,
-            base: d.grid_pos,
-            fields: Some(&mut out),
-        };
-        let Ok(head) = read_head(&mut c) else {
-            continue;
-        };
-        if let Some(kind) = ValueKind::of_type_name(&d.type_name) {
-            if !d.instance_parent.is_empty() {
-                continue;
-            }
-            let s = Storage {
-                compression: head.compression,
-                kind: kind.0,
-                half: kind.1,
-            };
-            let rel = (d.block_pos - d.grid_pos) as usize;
-            let _ = read_tree(&mut c, s, rel);
+    let Ok(head) = read_head(&mut c) else {
+        return;
+    };
+    if let Some(kind) = ValueKind::of_type_name(type_name) {
+        if instanced {
+            return;
         }
+        let s = Storage {
+            compression: head.compression,
+            kind: kind.0,
+            half: kind.1,
+        };
+        let rel = (block_pos - grid_pos) as usize;
+        let _ = read_tree(&mut c, s, rel);
     }
-    out
 }
 
 #[cfg(test)]

@@ -18,8 +18,12 @@
 //! then grid start, data block start, grid end (i64 each); the next
 //! descriptor starts at the previous grid's end.
 
-use super::check::{check_meta_value, Field, FieldKind};
+use super::check::check_meta_value;
+use super::field::{Field, FieldKind};
 use std::fmt;
+
+/// Newest VDB file format version we accept (OpenVDB 10 writes 224).
+pub const MAX_FILE_VERSION: u32 = 224;
 
 const MAGIC: i64 = 0x5644_4220;
 /// Oldest file version we accept: OpenVDB 2.0 (2013) and later write 222
@@ -123,7 +127,7 @@ impl fmt::Display for HeaderError {
             HeaderError::UnsupportedVersion(v) => write!(
                 f,
                 "VDB file format version {v} is not supported (this build reads {MIN_VERSION} to {})",
-                crate::vdb::MAX_FILE_VERSION
+                MAX_FILE_VERSION
             ),
             HeaderError::NoGridOffsets => {
                 write!(f, "the file has no grid offset table (written by a very old OpenVDB); re-save it")
@@ -264,7 +268,7 @@ pub fn parse(src: &mut dyn Source, file_size: u64) -> Result<Header, HeaderError
         return Err(HeaderError::NotVdb);
     }
     let file_version = r.u32("file version")?;
-    if !(MIN_VERSION..=crate::vdb::MAX_FILE_VERSION).contains(&file_version) {
+    if !(MIN_VERSION..=MAX_FILE_VERSION).contains(&file_version) {
         return Err(HeaderError::UnsupportedVersion(file_version));
     }
     let major = r.u32("library version")?;

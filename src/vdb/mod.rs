@@ -11,17 +11,16 @@
 
 pub mod check;
 mod ffi;
+pub mod field;
 pub mod header;
 
 use crate::error::{Error, Result};
 use crate::grid::{BrickValues, Grid, GridParts, GridValue, Tile};
 use ffi::bridge;
+pub use field::{Field, FieldKind};
 use glam::{DAffine3, DMat3, DVec3, IVec3, Vec3};
-pub use header::{GridDescriptor, Header};
+pub use header::{GridDescriptor, Header, MAX_FILE_VERSION};
 use std::path::{Path, PathBuf};
-
-/// Newest VDB file format version we accept (OpenVDB 10 writes 224).
-pub const MAX_FILE_VERSION: u32 = 224;
 
 /// Metadata entry (name, OpenVDB type name, value as text).
 pub type MetaEntry = bridge::MetaEntry;
@@ -585,4 +584,30 @@ pub mod reference {
         bridge::write_test_fixture(path_str(path)?, kind)
             .map_err(|e| Error::file(path, e.what().to_string()))
     }
+}
+
+/// Every length, count, offset, flag and mask of a file that the header
+/// check and the grid walk read, in file order where possible: for a
+/// fuzzer, which damages these rather than random bytes. Best effort: a
+/// grid that fails its walk contributes the fields before the failure.
+pub fn file_fields(bytes: &[u8]) -> Vec<Field> {
+    let mut out = Vec::new();
+    let Ok(h) = header::parse(&mut { bytes }, bytes.len() as u64) else {
+        return out;
+    };
+    out.extend(h.fields.iter().copied());
+    for d in &h.grids {
+        let Some(b) = bytes.get(d.grid_pos as usize..d.end_pos as usize) else {
+            continue;
+        };
+        check::grid_fields(
+            b,
+            d.grid_pos,
+            d.block_pos,
+            &d.type_name,
+            !d.instance_parent.is_empty(),
+            &mut out,
+        );
+    }
+    out
 }

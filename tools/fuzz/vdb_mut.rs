@@ -5,8 +5,8 @@
 //! duplicated, removed, type names exchanged).
 
 use crate::rng::Rng;
-use vdbphoton::vdb::check::{file_fields, Field, FieldKind};
 use vdbphoton::vdb::header::{self, GridDescriptor};
+use vdbphoton::vdb::{file_fields, Field, FieldKind};
 
 /// A seed file with what the mutations need to know about it.
 pub struct Seed {

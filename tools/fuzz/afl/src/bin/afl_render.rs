@@ -18,12 +18,12 @@
 mod oracle;
 
 use vdbphoton::frames::{render_job, FrameJob};
-use vdbphoton::render::{RenderOptions, Silent};
-use vdbphoton::scene::SceneDesc;
+use vdbphoton::render::{Overrides, RenderOptions, Silent};
+use vdbphoton::scene::{Param, SceneDesc};
 
 /// Photons a pass at most: a scene may ask for millions, which is work it
 /// asked for, not a hang.
-const MAX_PHOTONS: u32 = 4096;
+const MAX_PHOTONS: i64 = 4096;
 
 fn main() {
     // OpenVDB opens files by name: the input goes to a directory of this
@@ -50,12 +50,22 @@ fn main() {
         let Ok(mut desc) = SceneDesc::from_str_named(text, format, &dir, "input") else {
             return;
         };
-        let r = &mut desc.render;
-        (r.width, r.height, r.spp) = (16, 12, 1);
-        r.output = exr.clone();
-        r.preview = None;
-        r.photon.photons = Some(r.photon.photons.unwrap_or(MAX_PHOTONS).min(MAX_PHOTONS));
-        if desc.validate().is_err() {
+        // The photon count is capped (a scene may ask for 2^28).
+        let photon = desc.render.settings.entry("photon".into()).or_default();
+        let photons = photon.get("photons").and_then(|p| p.as_i64());
+        photon.insert(
+            "photons".into(),
+            Param::Int(photons.unwrap_or(MAX_PHOTONS).clamp(1, MAX_PHOTONS)),
+        );
+        let small = Overrides {
+            output: Some(exr.clone()),
+            no_preview: true,
+            width: Some(16),
+            height: Some(12),
+            spp: Some(1),
+            ..Default::default()
+        };
+        if small.apply(&mut desc, std::path::Path::new("input")).is_err() {
             return;
         }
         let opts = RenderOptions {

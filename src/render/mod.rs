@@ -7,38 +7,22 @@
 
 use crate::error::{Error, Result};
 use crate::film::{Film, Region};
-use crate::integrator::{self, Integrator, PathIntegrator, PhotonIntegrator};
-use crate::scene::{Integrator as IntegratorChoice, SceneDesc};
+use crate::integrator::{self, Integrator};
+use crate::scene::{SceneDesc, AUTO_INTEGRATOR};
 use crate::world::World;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+
+mod overrides;
+pub mod passes;
+pub mod report;
+
+pub use overrides::Overrides;
+
+pub use passes::{run_passes, Stop};
+pub use report::{FrameOutcome, Progress, Reporter, Silent, Summary, Throttle};
 use std::time::{Duration, Instant};
 
-/// A duration as the command line takes it: seconds (`90`, `1.5`) or a
-/// number with a unit (`90s`, `5m`, `1h`).
-pub fn parse_duration(s: &str) -> std::result::Result<Duration, String> {
-    let t = s.trim();
-    let (num, scale) = if let Some(n) = t.strip_suffix('h') {
-        (n, 3600.0)
-    } else if let Some(n) = t.strip_suffix('m') {
-        (n, 60.0)
-    } else if let Some(n) = t.strip_suffix('s') {
-        (n, 1.0)
-    } else {
-        (t, 1.0)
-    };
-    let v: f64 = num
-        .trim()
-        .parse()
-        .map_err(|_| format!("'{s}' is not a duration (e.g. 90, 90s, 5m, 1h)"))?;
-    let secs = v * scale;
-    if !(secs.is_finite() && secs > 0.0 && secs <= 1e7) {
-        return Err(format!(
-            "'{s}': a duration must be more than 0 and at most 10^7 seconds"
-        ));
-    }
-    Ok(Duration::from_secs_f64(secs))
-}
+pub use crate::units::parse_duration;
 
 /// How a render runs, beside what the scene says.
 #[derive(Debug, Clone, Default)]
@@ -68,11 +52,6 @@ pub struct RenderOptions {
     pub view: crate::image::View,
 }
 
-/// Bytes a stored photon takes at the peak of a pass (the photon, its
-/// radius, its box while the BVH is built, the BVH and the reordered copy;
-/// `cargo bench --bench photon` measured 128 bytes after the build).
-const PHOTON_PEAK_BYTES: u64 = 220;
-
 /// Bytes per pixel beside the film: the image assembled for writing and
 /// the encoder's copy (RGBA and, with AOVs, ten channels more, f32).
 fn image_bytes_per_pixel(aovs: bool) -> u64 {
@@ -94,7 +73,6 @@ fn check_memory(
     desc: &SceneDesc,
     region: Region,
     grids: u64,
-    photon: bool,
     denoise: bool,
     limit: Option<u64>,
 ) -> Result<()> {
@@ -115,15 +93,19 @@ fn check_memory(
         } else {
             0
         };
-    let photons = if photon {
-        r.photon.photons_for(r.width, r.height) as u64 * PHOTON_PEAK_BYTES
-    } else {
-        0
+    // `auto` may choose any integrator: count the one that needs most.
+    let photons = match integrator::find(&r.integrator) {
+        Some(reg) => (reg.peak_bytes)(desc),
+        None => integrator::REGISTRY
+            .iter()
+            .map(|reg| (reg.peak_bytes)(desc))
+            .max()
+            .unwrap_or(0),
     };
     let need = film + photons + grids;
     if need > limit {
         return Err(Error::Argument(format!(
-            "the render needs about {} (film and images{} {} for {} x {} pixels, photon map {}, grids {}) but {} {}; lower the image size or `photons`, or give --max-memory",
+            "the render needs about {} (film and images{} {} for {} x {} pixels, photon map {}, grids {}) but {} {}; lower the image size or [render.photon] photons, or give --max-memory",
             gib(need),
             if denoise { " and denoising" } else { "" },
             gib(film),
@@ -136,56 +118,6 @@ fn check_memory(
         )));
     }
     Ok(())
-}
-
-/// Where a render is.
-#[derive(Debug, Clone, Copy)]
-pub struct Progress {
-    /// Share of the work done, 0 to 1.
-    pub fraction: f64,
-    /// Seconds since the render's first pass started.
-    pub elapsed: f64,
-    /// Seconds still to go, when it can be told.
-    pub eta: Option<f64>,
-    /// Passes finished.
-    pub passes: u32,
-}
-
-/// What a render tells whoever runs it. Called from worker threads.
-pub trait Reporter: Sync {
-    /// Something the user should know (a grid that has no effect, ...).
-    fn warning(&self, _message: &str) {}
-    /// Progress within the render, after every tile.
-    fn progress(&self, _p: Progress) {}
-    /// A checkpoint was written.
-    fn checkpoint(&self, _path: &Path, _passes: u32) {}
-    /// A finished render wrote this file (the EXR, then the preview).
-    fn saved(&self, _path: &Path) {}
-    /// Frame `frame`, the `index`-th of `count`, starts.
-    fn frame_started(&self, _frame: u32, _index: usize, _count: usize) {}
-    /// Frame `frame` ended after `seconds`.
-    fn frame_done(&self, _frame: u32, _outcome: &crate::frames::FrameOutcome, _seconds: f64) {}
-}
-
-/// A reporter that reports nothing.
-pub struct Silent;
-impl Reporter for Silent {}
-
-/// What a finished render did.
-#[derive(Debug, Clone)]
-pub struct Summary {
-    pub integrator: &'static str,
-    pub passes: u32,
-    /// Camera samples per pixel.
-    pub spp: u32,
-    pub width: u32,
-    pub height: u32,
-    pub threads: usize,
-    pub load_seconds: f64,
-    pub render_seconds: f64,
-    pub write_seconds: f64,
-    /// The files written: the EXR, then the preview if any.
-    pub outputs: Vec<PathBuf>,
 }
 
 /// Checks before any work that the outputs can be written: the EXR must end
@@ -249,7 +181,7 @@ pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
 /// photon integrator, unless every volume is optically thin (where most
 /// light scatters once, which the marcher and the path tracer both compute
 /// exactly, and a photon map only adds blur) or nothing scatters.
-pub fn choose_integrator(world: &World) -> (IntegratorChoice, &'static str) {
+pub fn choose_integrator(world: &World) -> (&'static str, &'static str) {
     let thick = world.media.volumes().iter().any(|v| {
         let (lo, hi) = v.world_bounds();
         let extent = (hi - lo).max_element();
@@ -257,35 +189,42 @@ pub fn choose_integrator(world: &World) -> (IntegratorChoice, &'static str) {
     });
     if thick {
         (
-            IntegratorChoice::Photon,
+            integrator::photon::REGISTRATION.name,
             "optically thick volume: photon mapping",
         )
     } else {
         (
-            IntegratorChoice::Path,
+            integrator::path::REGISTRATION.name,
             "optically thin volumes: the path tracer",
         )
     }
 }
 
-/// Builds the integrator a scene asks for.
+/// Builds the integrator a scene asks for (`auto`: [`choose_integrator`]),
+/// from the registry.
 pub fn make_integrator(desc: &SceneDesc, world: &World) -> Result<Box<dyn Integrator>> {
-    let r = &desc.render;
-    let choice = match r.integrator {
-        IntegratorChoice::Auto => choose_integrator(world).0,
-        c => c,
+    check_integrator(desc)?;
+    let name = match desc.render.integrator.as_str() {
+        AUTO_INTEGRATOR => choose_integrator(world).0,
+        name => name,
     };
-    Ok(match choice {
-        IntegratorChoice::Path | IntegratorChoice::Auto => {
-            Box::new(PathIntegrator::new(r.max_bounces))
-        }
-        IntegratorChoice::Photon => Box::new(PhotonIntegrator::new(
-            world,
-            r.photon,
-            r.max_bounces,
-            r.seed,
-        )?),
-    })
+    let reg = integrator::find(name)
+        .ok_or_else(|| Error::Scene(format!("there is no integrator '{name}'")))?;
+    (reg.build)(desc, world)
+}
+
+/// Checks the scene's integrator and its settings table
+/// ([`integrator::check_settings`]) as an error of the crate (a scene
+/// loaded with [`load_scene`] was checked already, with line numbers).
+pub fn check_integrator(desc: &SceneDesc) -> Result<()> {
+    integrator::check_settings(desc).map_err(|e| Error::Scene(e.to_string()))
+}
+
+/// Loads a scene file with everything the renderer checks: the scene's
+/// own rules and the integrators' settings tables, each error pointing at
+/// its line.
+pub fn load_scene(path: impl AsRef<Path>) -> Result<SceneDesc> {
+    Ok(SceneDesc::load_with(path, &integrator::check_settings)?)
 }
 
 /// A fingerprint of what a render shows: the scene with its seed, sample
@@ -426,73 +365,6 @@ impl Denoiser {
     }
 }
 
-/// When a render stops.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Stop {
-    /// After this many passes.
-    Passes(u32),
-    /// Once this much time has gone: a pass starts only while the time so
-    /// far plus the last pass's duration is within it (at least one pass).
-    Time(Duration),
-}
-
-/// Runs passes of `integrator` into `film` until `stop`, reporting progress
-/// and calling `after_pass(film, integrator, passes so far)` after each
-/// pass (checkpoints). Returns the number of passes.
-pub fn run_passes(
-    world: &World,
-    integrator: &mut dyn Integrator,
-    film: &mut Film,
-    seed: u64,
-    stop: Stop,
-    reporter: &dyn Reporter,
-    mut after_pass: impl FnMut(&Film, &dyn Integrator, u32) -> Result<()>,
-) -> Result<u32> {
-    let t0 = Instant::now();
-    let mut passes = 0u32;
-    let mut last_pass = Duration::ZERO;
-    loop {
-        let done = match stop {
-            Stop::Time(limit) => passes > 0 && t0.elapsed() + last_pass > limit,
-            Stop::Passes(n) => passes >= n,
-        };
-        if done {
-            return Ok(passes);
-        }
-        crate::interrupt::check()?;
-        let tp = Instant::now();
-        integrator.begin_pass(world, passes);
-        let done_before = passes;
-        let report = |done: usize, total: usize| {
-            let in_pass = done as f64 / total.max(1) as f64;
-            let elapsed = t0.elapsed().as_secs_f64();
-            let (fraction, eta) = match stop {
-                Stop::Time(limit) => {
-                    let l = limit.as_secs_f64().max(1e-9);
-                    ((elapsed / l).min(1.0), Some((l - elapsed).max(0.0)))
-                }
-                Stop::Passes(n) => {
-                    let f = (done_before as f64 + in_pass) / n.max(1) as f64;
-                    (f, (f > 0.0).then(|| elapsed / f - elapsed))
-                }
-            };
-            reporter.progress(Progress {
-                fraction,
-                elapsed,
-                eta,
-                passes: done_before,
-            });
-        };
-        integrator::render_pass(world, integrator, film, seed, passes, &report);
-        // An interrupted pass is incomplete: stop before anything is
-        // written from it.
-        crate::interrupt::check()?;
-        passes += 1;
-        last_pass = tp.elapsed();
-        after_pass(film, integrator, passes)?;
-    }
-}
-
 /// The pixels a render covers: the whole image, `--region` or `--tile`.
 pub fn region_of(desc: &SceneDesc, opts: &RenderOptions) -> Result<Region> {
     let (w, h) = (desc.render.width, desc.render.height);
@@ -531,7 +403,10 @@ pub fn render_scene(
     if opts.threads == Some(0) {
         return Err(Error::Argument("--threads must be at least 1".into()));
     }
-    let wants_photons = r.integrator != IntegratorChoice::Path;
+    check_integrator(desc)?;
+    for w in &desc.warnings {
+        reporter.warning(w);
+    }
     // Grids check what is left of the limit before they load.
     crate::memory::set_limit(opts.max_memory);
     if region.pixels() as u64 > LARGE_IMAGE_PIXELS {
@@ -550,14 +425,7 @@ pub fn render_scene(
     // tile's denoised edge would not meet its neighbour's.
     let part = opts.tile.is_some() || opts.region.is_some();
     let denoise_here = r.denoise && !part;
-    check_memory(
-        desc,
-        region,
-        0,
-        wants_photons,
-        denoise_here,
-        opts.max_memory,
-    )?;
+    check_memory(desc, region, 0, denoise_here, opts.max_memory)?;
     let denoiser = if denoise_here {
         Some(Denoiser::load(opts.threads.unwrap_or(0))?)
     } else {
@@ -587,14 +455,7 @@ pub fn render_scene(
             .iter()
             .map(|v| v.memory_bytes() as u64)
             .sum();
-        check_memory(
-            desc,
-            region,
-            grids,
-            wants_photons,
-            denoise_here,
-            opts.max_memory,
-        )?;
+        check_memory(desc, region, grids, denoise_here, opts.max_memory)?;
         for w in &world.warnings {
             reporter.warning(w);
         }
@@ -674,32 +535,5 @@ pub fn render_scene(
             .map_err(|e| Error::Argument(format!("cannot start {t} threads: {e}")))?
             .install(run),
         None => run(),
-    }
-}
-
-/// Keeps the last message of a progress bar from interleaving: a
-/// convenience for reporters that print from worker threads.
-pub struct Throttle {
-    last: Mutex<Option<Instant>>,
-    every: Duration,
-}
-
-impl Throttle {
-    pub fn new(every: Duration) -> Self {
-        Self {
-            last: Mutex::new(None),
-            every,
-        }
-    }
-    /// True at most once per interval (and always when `force`).
-    pub fn ready(&self, force: bool) -> bool {
-        let mut l = self.last.lock().unwrap_or_else(|e| e.into_inner());
-        let now = Instant::now();
-        if force || l.is_none_or(|t| now - t >= self.every) {
-            *l = Some(now);
-            true
-        } else {
-            false
-        }
     }
 }
