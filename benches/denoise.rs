@@ -4,7 +4,8 @@
 //! a second denoising of the frame, and prints the process's peak resident
 //! memory around them (Linux's VmHWM, reset before each step). Run with
 //! `cargo bench --bench denoise` (`BENCH_SIZE=WxH`, `BENCH_THREADS`,
-//! default all cores). Needs the library (`bash scripts/install_oidn.sh`).
+//! default all cores; `BENCH_QUALITY=high|balanced|fast`, default high).
+//! Needs the library (`bash scripts/install_oidn.sh`).
 
 use std::path::Path;
 use std::time::Instant;
@@ -82,6 +83,11 @@ fn main() {
         "load Open Image Denoise: {:.3} s",
         t.elapsed().as_secs_f64()
     );
+    let denoiser = denoiser.with_quality(match std::env::var("BENCH_QUALITY").as_deref() {
+        Ok("balanced") => vdbphoton::denoise::Quality::Balanced,
+        Ok("fast") => vdbphoton::denoise::Quality::Fast,
+        _ => vdbphoton::denoise::Quality::High,
+    });
     for run in ["first", "second"] {
         let mut img = image.clone();
         reset_peak();

@@ -21,8 +21,11 @@
 //! scene at a lower resolution that divides this one, e.g. 480 x 270 made
 //! by `BENCH_MAKE_REFERENCE=480x270,4096`), the raw and the denoised frame
 //! are box-filtered down to its size and compared with it (relative MSE,
-//! image mean ratio). `BENCH_MAKE_REFERENCE=WxH,SPP` renders that
-//! reference with the path tracer instead (into `BENCH_DIR`) and stops.
+//! image mean ratio). A reference that is a region of the full frame
+//! (`vdbphoton render --region`, same scene, many samples) is compared
+//! with the same pixels of the frame instead, at full resolution.
+//! `BENCH_MAKE_REFERENCE=WxH,SPP` renders a lower-resolution reference
+//! with the path tracer instead (into `BENCH_DIR`) and stops.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -59,6 +62,17 @@ fn downsample(img: &ImageRgb, f: usize) -> ImageRgb {
                 }
             }
             out.set(x, y, s / (f * f) as f32);
+        }
+    }
+    out
+}
+
+/// The `cw` x `ch` pixels of `img` from (`x0`, `y0`) on.
+fn crop(img: &ImageRgb, x0: usize, y0: usize, cw: usize, ch: usize) -> ImageRgb {
+    let mut out = ImageRgb::filled(cw, ch, vdbphoton::Rgb::ZERO);
+    for y in 0..ch {
+        for x in 0..cw {
+            out.set(x, y, img.get(x0 + x, y0 + y));
         }
     }
     out
@@ -153,9 +167,15 @@ phase = {{ type = "hg", g = 0.3 }}
             );
             return;
         }
-        let reference = std::env::var("BENCH_REFERENCE")
-            .ok()
-            .map(|p| vdbphoton::image::read_exr_rgb(std::path::Path::new(&p)).unwrap());
+        // The reference: its pixels, and where they sit when it is a region
+        // of this very frame.
+        let reference = std::env::var("BENCH_REFERENCE").ok().map(|p| {
+            let (img, _) = vdbphoton::image::read_exr(std::path::Path::new(&p)).unwrap();
+            let region = (img.display_size() == (w as usize, h as usize)
+                && (img.width(), img.height()) != (w as usize, h as usize))
+                .then(|| img.origin());
+            (img.to_rgb(), region)
+        });
         let denoiser = Denoiser::load(0)
             .map_err(|e| println!("(no denoising: {e})"))
             .ok();
@@ -231,12 +251,21 @@ phase = {{ type = "hg", g = 0.3 }}
                 );
                 images.push(("denoised", img.to_rgb()));
             }
-            if let Some(r) = &reference {
-                let f = w as usize / r.width;
+            if let Some((r, region)) = &reference {
                 for (what, img) in &images {
-                    let m = vdbphoton::image::compare(&downsample(img, f), r).unwrap();
+                    let (ours, how) = match region {
+                        Some((x0, y0)) => (
+                            crop(img, *x0, *y0, r.width, r.height),
+                            format!("pixels {x0},{y0} on, full resolution"),
+                        ),
+                        None => {
+                            let f = w as usize / r.width;
+                            (downsample(img, f), format!("box {f} x {f}"))
+                        }
+                    };
+                    let m = vdbphoton::image::compare(&ours, r).unwrap();
                     println!(
-                        "res {res}: {:<6} {what:>8} against the reference ({} x {}, box {f} x {f}): relMSE {:.3e}, mean ratio {:.5}",
+                        "res {res}: {:<6} {what:>8} against the reference ({} x {}, {how}): relMSE {:.3e}, mean ratio {:.5}",
                         integ.name(),
                         r.width,
                         r.height,

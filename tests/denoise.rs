@@ -46,15 +46,24 @@ fn ok(dir: &Path, args: &[&str]) -> Output {
     out
 }
 
-/// Whether Open Image Denoise can be loaded here (else a note).
+/// Whether Open Image Denoise can be loaded here (else a note). Under CI
+/// (`CI=true`, where `.ci/run` installs it) a missing library fails.
 fn have_oidn() -> bool {
     match vdbphoton::denoise::Oidn::load(1) {
         Ok(_) => true,
+        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => {
+            panic!("CI installs Open Image Denoise, but: {e}")
+        }
         Err(e) => {
             eprintln!("skipped: {e}");
             false
         }
     }
+}
+
+/// A scratch folder, when Open Image Denoise is here ([`have_oidn`]).
+fn oidn_tempdir() -> Option<tempfile::TempDir> {
+    have_oidn().then(common::tempdir)
 }
 
 fn rel_mse(a: &Path, b: &Path) -> f64 {
@@ -75,10 +84,7 @@ fn noisy(image: &Image) -> Vec<Vec4> {
 
 #[test]
 fn denoised_images_are_closer_to_the_reference_and_keep_the_raw_one() {
-    if !have_oidn() {
-        return;
-    }
-    let d = common::tempdir();
+    let Some(d) = oidn_tempdir() else { return };
     let dir = d.path();
     let size = ["--width", "96", "--height", "72"];
     let mut args = vec![
@@ -153,10 +159,7 @@ fn denoised_images_are_closer_to_the_reference_and_keep_the_raw_one() {
 
 #[test]
 fn tiles_are_denoised_when_merged_as_the_whole_frame_is() {
-    if !have_oidn() {
-        return;
-    }
-    let d = common::tempdir();
+    let Some(d) = oidn_tempdir() else { return };
     let dir = d.path();
     let base = [
         "render",
@@ -320,4 +323,101 @@ fn the_denoising_albedo_is_the_scattering_seen_along_the_ray() {
             );
         }
     }
+}
+
+/// `--denoise-quality` (and `[render] denoise_quality`) reaches the
+/// denoiser and its header; checkpoints are denoised at the fast quality,
+/// the finished frame at the one asked for; a bad quality is one line.
+#[test]
+fn the_denoising_quality_is_the_one_asked_for() {
+    let Some(d) = oidn_tempdir() else { return };
+    let dir = d.path();
+    let header = |f: &str| {
+        let (_, attrs) = vdbphoton::image::read_exr(dir.join(f)).unwrap();
+        attrs
+            .into_iter()
+            .find(|(k, _)| k == "vdbphoton/denoiser")
+            .map(|(_, v)| v)
+            .unwrap_or_default()
+    };
+    let base = [
+        "render",
+        SCENE,
+        "-q",
+        "--integrator",
+        "path",
+        "--spp",
+        "2",
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--no-preview",
+        "--denoise",
+    ];
+    for (q, want) in [("fast", "quality fast"), ("high", "quality high")] {
+        let out = format!("{q}.exr");
+        let mut a = base.to_vec();
+        a.extend(["--denoise-quality", q, "-o", &out]);
+        ok(dir, &a);
+        assert!(header(&out).contains(want), "{}", header(&out));
+    }
+    // The scene key, and a checkpoint written after every pass.
+    let scene = std::fs::read_to_string(SCENE)
+        .unwrap()
+        .replace("[render]", "[render]\ndenoise_quality = \"balanced\"");
+    let scene = scene.replace(
+        "\"cloud.vdb\"",
+        &format!("{:?}", Path::new(SCENE).with_file_name("cloud.vdb")),
+    );
+    std::fs::write(dir.join("q.toml"), scene).unwrap();
+    let mut a = base.to_vec();
+    a[1] = "q.toml";
+    a.extend(["-o", "q.exr"]);
+    ok(dir, &a);
+    assert!(
+        header("q.exr").contains("quality balanced"),
+        "{}",
+        header("q.exr")
+    );
+    // A checkpoint: kill the render after its first checkpoint lands.
+    let mut child = Command::new(BIN)
+        .current_dir(dir)
+        .args([
+            "render",
+            SCENE,
+            "-q",
+            "--integrator",
+            "path",
+            "--spp",
+            "100000",
+        ])
+        .args([
+            "--width",
+            "48",
+            "--height",
+            "36",
+            "--no-preview",
+            "--denoise",
+        ])
+        .args(["--checkpoint", "0.2s", "-o", "cp.exr"])
+        .spawn()
+        .unwrap();
+    let t = std::time::Instant::now();
+    while !dir.join("cp.exr").exists() && t.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(100));
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(
+        header("cp.exr").contains("quality fast"),
+        "{}",
+        header("cp.exr")
+    );
+    let out = run(dir, &["render", SCENE, "--denoise-quality", "best"], &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("high, balanced or fast"), "{err}");
 }

@@ -723,8 +723,11 @@ fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
     let sun = || vec![Light::sun(Vec3::Z, Rgb::ONE, 0.0)];
     let thick = world(vec![cloud(raw(0.2, 15.0, 0.3))], sun(), Rgb::ZERO);
     let thin = world(vec![cloud(raw(0.05, 0.3, 0.3))], sun(), Rgb::ZERO);
-    assert_eq!(choose_integrator(&thick).0, "photon");
-    assert_eq!(choose_integrator(&thin).0, "path");
+    assert_eq!(choose_integrator(&thick, false).0, "photon");
+    assert_eq!(choose_integrator(&thin, false).0, "path");
+    // A denoised image: the path tracer (its noise is what the denoiser
+    // removes; docs/performance.md, "Denoising").
+    assert_eq!(choose_integrator(&thick, true).0, "path");
 }
 
 /// The pilot measures the media's scattering order, and the automatic

@@ -135,6 +135,7 @@ fn defaults_when_keys_are_absent() {
                 fps: 24.0,
             },
             denoise: false,
+            denoise_quality: vdbphoton::scene::DenoiseQuality::High,
         }
     );
     assert_eq!(

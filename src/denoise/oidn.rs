@@ -52,6 +52,16 @@ pub enum Quality {
     Fast = 4,
 }
 
+impl From<crate::scene::DenoiseQuality> for Quality {
+    fn from(q: crate::scene::DenoiseQuality) -> Self {
+        match q {
+            crate::scene::DenoiseQuality::High => Quality::High,
+            crate::scene::DenoiseQuality::Balanced => Quality::Balanced,
+            crate::scene::DenoiseQuality::Fast => Quality::Fast,
+        }
+    }
+}
+
 /// The soname of OIDN 2.x (1.x is `.so.1`, with another API).
 pub const SONAME: &str = "libOpenImageDenoise.so.2";
 /// The library, or a folder holding it, when it is somewhere else.

@@ -10,6 +10,7 @@
 //! `crate::render::choose_integrator`, picks between the two it knows).
 
 pub mod albedo;
+pub mod albedo_view;
 pub mod nee;
 pub mod path;
 pub mod photon;
@@ -118,7 +119,11 @@ pub struct Registration {
 /// The integrators the renderer knows. Adding one: a module here with
 /// its [`Integrator`] and its [`Registration`], its `mod` line above and
 /// one line below.
-pub const REGISTRY: &[&Registration] = &[&path::REGISTRATION, &photon::REGISTRATION];
+pub const REGISTRY: &[&Registration] = &[
+    &path::REGISTRATION,
+    &photon::REGISTRATION,
+    &albedo_view::REGISTRATION,
+];
 
 /// The registration named `name`.
 pub fn find(name: &str) -> Option<&'static Registration> {

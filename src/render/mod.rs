@@ -180,8 +180,19 @@ pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
 /// The integrator `auto` stands for, and why, for a loaded world: the
 /// photon integrator, unless every volume is optically thin (where most
 /// light scatters once, which the marcher and the path tracer both compute
-/// exactly, and a photon map only adds blur) or nothing scatters.
-pub fn choose_integrator(world: &World) -> (&'static str, &'static str) {
+/// exactly, and a photon map only adds blur) or nothing scatters, or the
+/// image will be denoised: the path tracer's error is pixel noise, which
+/// the denoiser removes, while the photon estimate's is blotches the size
+/// of its kernels and a slight bias, which it leaves (on the dense
+/// reference cloud at 30 s, denoised: path 4.1e-4, photon 1.25e-3;
+/// docs/performance.md, "Denoising").
+pub fn choose_integrator(world: &World, denoise: bool) -> (&'static str, &'static str) {
+    if denoise {
+        return (
+            integrator::path::REGISTRATION.name,
+            "denoised: the path tracer, whose noise the denoiser removes",
+        );
+    }
     let thick = world.media.volumes().iter().any(|v| {
         let (lo, hi) = v.world_bounds();
         let extent = (hi - lo).max_element();
@@ -205,7 +216,7 @@ pub fn choose_integrator(world: &World) -> (&'static str, &'static str) {
 pub fn make_integrator(desc: &SceneDesc, world: &World) -> Result<Box<dyn Integrator>> {
     check_integrator(desc)?;
     let name = match desc.render.integrator.as_str() {
-        AUTO_INTEGRATOR => choose_integrator(world).0,
+        AUTO_INTEGRATOR => choose_integrator(world, desc.render.denoise).0,
         name => name,
     };
     let reg = integrator::find(name)
@@ -308,14 +319,22 @@ fn write_outputs(
     attrs: &[(String, String)],
     view: crate::image::View,
     denoiser: Option<&Denoiser>,
+    checkpoint: bool,
 ) -> Result<Vec<PathBuf>> {
     let r = &desc.render;
     let mut image = film.to_image()?;
     let mut attrs = attrs.to_vec();
     let mut failed = None;
     if let Some(d) = denoiser {
-        match d.apply(&mut image) {
-            Ok(()) => attrs.push(("vdbphoton/denoiser".into(), d.describe(&image))),
+        // A checkpoint is a preview: its denoising takes the fast quality
+        // (about 60 % of the time), the finished frame the one asked for.
+        let quality = if checkpoint {
+            crate::denoise::Quality::Fast
+        } else {
+            d.quality
+        };
+        match d.apply_at(&mut image, quality) {
+            Ok(()) => attrs.push(("vdbphoton/denoiser".into(), d.describe_at(&image, quality))),
             Err(e) => failed = Some(e),
         }
     }
@@ -342,7 +361,8 @@ pub struct Denoiser {
 }
 
 impl Denoiser {
-    /// Loads Open Image Denoise for `threads` threads (0: all cores).
+    /// Loads Open Image Denoise for `threads` threads (0: all cores), at
+    /// its highest quality.
     pub fn load(threads: usize) -> Result<Self> {
         Ok(Self {
             oidn: crate::denoise::Oidn::load(threads).map_err(Error::Argument)?,
@@ -350,16 +370,34 @@ impl Denoiser {
         })
     }
 
+    /// The same denoiser at another quality.
+    pub fn with_quality(self, quality: crate::denoise::Quality) -> Self {
+        Self { quality, ..self }
+    }
+
     /// Denoises `image` in place (`crate::denoise::denoise_image`).
     pub fn apply(&self, image: &mut crate::image::Image) -> Result<()> {
-        crate::denoise::denoise_image(&self.oidn, image, self.quality).map_err(Error::Argument)
+        self.apply_at(image, self.quality)
+    }
+
+    /// Denoises `image` in place at `quality`.
+    pub fn apply_at(
+        &self,
+        image: &mut crate::image::Image,
+        quality: crate::denoise::Quality,
+    ) -> Result<()> {
+        crate::denoise::denoise_image(&self.oidn, image, quality).map_err(Error::Argument)
     }
 
     /// The header's description of what was done to `image`.
     pub fn describe(&self, image: &crate::image::Image) -> String {
+        self.describe_at(image, self.quality)
+    }
+
+    fn describe_at(&self, image: &crate::image::Image, quality: crate::denoise::Quality) -> String {
         crate::denoise::describe(
             &self.oidn,
-            self.quality,
+            quality,
             image.layer(crate::denoise::ALBEDO_LAYER).is_some(),
         )
     }
@@ -427,7 +465,7 @@ pub fn render_scene(
     let denoise_here = r.denoise && !part;
     check_memory(desc, region, 0, denoise_here, opts.max_memory)?;
     let denoiser = if denoise_here {
-        Some(Denoiser::load(opts.threads.unwrap_or(0))?)
+        Some(Denoiser::load(opts.threads.unwrap_or(0))?.with_quality(r.denoise_quality.into()))
     } else {
         None
     };
@@ -460,6 +498,14 @@ pub fn render_scene(
             reporter.warning(w);
         }
         let mut integrator = make_integrator(desc, &world)?;
+        // Why `auto` chose what it chose, in the header.
+        let mut extra = extra.clone();
+        if r.integrator == AUTO_INTEGRATOR {
+            extra.push((
+                "vdbphoton/auto".into(),
+                choose_integrator(&world, r.denoise).1.into(),
+            ));
+        }
         let mut film = Film::new(r.width, r.height, region, r.aovs);
         if r.denoise {
             integrator.enable_albedo(&world);
@@ -494,7 +540,7 @@ pub fn render_scene(
                     t0.elapsed().as_secs_f64(),
                     &extra,
                 );
-                write_outputs(desc, film, &attrs, opts.view, denoiser.as_ref())?;
+                write_outputs(desc, film, &attrs, opts.view, denoiser.as_ref(), true)?;
                 reporter.checkpoint(&r.output, passes);
                 last_checkpoint = Instant::now();
                 Ok(())
@@ -511,7 +557,7 @@ pub fn render_scene(
             render_seconds,
             &extra,
         );
-        let outputs = write_outputs(desc, &film, &attrs, opts.view, denoiser.as_ref())?;
+        let outputs = write_outputs(desc, &film, &attrs, opts.view, denoiser.as_ref(), false)?;
         for p in &outputs {
             reporter.saved(p);
         }

@@ -28,6 +28,8 @@ pub struct Overrides {
     pub aovs: bool,
     /// Denoise (on when either asks).
     pub denoise: bool,
+    /// The denoiser's quality.
+    pub denoise_quality: Option<crate::scene::DenoiseQuality>,
 }
 
 impl Overrides {
@@ -67,6 +69,9 @@ impl Overrides {
         }
         r.aovs |= self.aovs;
         r.denoise |= self.denoise;
+        if let Some(q) = self.denoise_quality {
+            r.denoise_quality = q;
+        }
         desc.validate()
             .map_err(|e| e.to_string())
             .and_then(|()| crate::integrator::check_settings(desc).map_err(|e| e.to_string()))

@@ -89,6 +89,35 @@ impl std::fmt::Display for Param {
     }
 }
 
+/// Open Image Denoise's quality (Blender's Denoising › Quality): `High`
+/// is its best image; `Fast` takes about 60 % of the time and memory and
+/// leaves somewhat more error (figures in docs/performance.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DenoiseQuality {
+    #[default]
+    High,
+    Balanced,
+    Fast,
+}
+
+impl DenoiseQuality {
+    /// The spelling used in scene files and headers.
+    pub fn name(self) -> &'static str {
+        match self {
+            DenoiseQuality::High => "high",
+            DenoiseQuality::Balanced => "balanced",
+            DenoiseQuality::Fast => "fast",
+        }
+    }
+
+    /// The quality named `s`.
+    pub fn parse(s: &str) -> Option<Self> {
+        [Self::High, Self::Balanced, Self::Fast]
+            .into_iter()
+            .find(|q| q.name() == s)
+    }
+}
+
 /// An integrator's settings table, key by key.
 pub type Params = BTreeMap<String, Param>;
 
@@ -129,6 +158,9 @@ pub struct RenderDesc {
     /// Denoise the finished image with Intel Open Image Denoise (`denoise`);
     /// tiles are denoised when merged.
     pub denoise: bool,
+    /// How hard the denoiser works on the finished image
+    /// (`denoise_quality`, Blender's Denoising › Quality).
+    pub denoise_quality: DenoiseQuality,
 }
 
 /// Blender's Motion Blur panel (Render Properties): whether moving
@@ -239,6 +271,7 @@ impl Default for RenderDesc {
             frames: None,
             motion_blur: MotionBlurDesc::default(),
             denoise: false,
+            denoise_quality: DenoiseQuality::High,
         }
     }
 }

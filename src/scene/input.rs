@@ -14,9 +14,9 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use super::desc::{
-    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, EnvironmentDesc, LightDesc,
-    MaterialDesc, MotionBlurDesc, Param, Params, PhaseDesc, Principled, RenderDesc, SceneDesc,
-    ShutterPosition, VelocityUnit, VolumeDesc,
+    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, DenoiseQuality, EnvironmentDesc,
+    LightDesc, MaterialDesc, MotionBlurDesc, Param, Params, PhaseDesc, Principled, RenderDesc,
+    SceneDesc, ShutterPosition, VelocityUnit, VolumeDesc,
 };
 use super::desc::{CameraPose, Lens, SensorFit, VolumeBounds, AUTO_VIEW_DIRECTION};
 use super::error::{kp, PathSeg, ValidationError};
@@ -149,6 +149,7 @@ pub(crate) struct RenderIn {
     shutter_position: Option<ShutterPositionIn>,
     fps: Option<f64>,
     denoise: Option<bool>,
+    denoise_quality: Option<DenoiseQualityIn>,
     /// The integrators' tables `[render.NAME]`, taken out of `[render]`
     /// before serde reads it (`super::parse_toml`): their names are not
     /// known here.
@@ -162,6 +163,14 @@ enum ShutterPositionIn {
     Start,
     Center,
     End,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum DenoiseQualityIn {
+    High,
+    Balanced,
+    Fast,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -582,6 +591,12 @@ impl RenderIn {
                 }
             },
             denoise: self.denoise.unwrap_or(d.denoise),
+            denoise_quality: match self.denoise_quality {
+                None => d.denoise_quality,
+                Some(DenoiseQualityIn::High) => DenoiseQuality::High,
+                Some(DenoiseQualityIn::Balanced) => DenoiseQuality::Balanced,
+                Some(DenoiseQualityIn::Fast) => DenoiseQuality::Fast,
+            },
         })
     }
 }

@@ -156,6 +156,10 @@ pub struct RenderArgs {
     /// the raw render as the layer `noisy`; tiles are denoised by `merge`).
     #[arg(long)]
     pub denoise: bool,
+    /// The denoiser's quality: high (default), balanced or fast (about 60 %
+    /// of high's time and memory, somewhat more error).
+    #[arg(long, value_parser = parse_denoise_quality)]
+    pub denoise_quality: Option<vdbphoton::scene::DenoiseQuality>,
     /// Write no PNG preview, whatever the scene says.
     #[arg(long, conflicts_with = "preview")]
     pub no_preview: bool,
@@ -215,6 +219,12 @@ fn parse_frame(s: &str) -> std::result::Result<u32, String> {
             vdbphoton::sequence::MAX_FRAME
         )),
     }
+}
+
+/// A denoising quality: high, balanced or fast.
+fn parse_denoise_quality(s: &str) -> std::result::Result<vdbphoton::scene::DenoiseQuality, String> {
+    vdbphoton::scene::DenoiseQuality::parse(s)
+        .ok_or_else(|| format!("'{s}' is not a denoising quality: high, balanced or fast"))
 }
 
 /// An integrator's name: `auto` or a registered one.

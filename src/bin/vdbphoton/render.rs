@@ -36,6 +36,7 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
         integrator: a.integrator,
         aovs: a.aovs,
         denoise: a.denoise,
+        denoise_quality: a.denoise_quality,
     }
     .apply(&mut desc, &a.scene)?;
     let region = a
