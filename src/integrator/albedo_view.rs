@@ -2,7 +2,7 @@
 //! ([`super::albedo::along`]), what the denoiser is guided by, as Cycles'
 //! Denoising Albedo pass shows it. For checking a guide against the beauty
 //! image (`--integrator albedo`), and the smallest example of an
-//! integrator: this file and one line in [`super::REGISTRY`] are all it
+//! integrator: this file and one line in `registry!` (`super`) are all it
 //! takes (ARCHITECTURE.md, "How to add an integrator").
 //!
 //! Not light transport: it ignores the lights. Its closed forms are those

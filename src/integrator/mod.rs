@@ -4,16 +4,31 @@
 //!
 //! To add an integrator: write a module here that implements
 //! [`Integrator`] and defines its [`Registration`] (name, constructor,
-//! memory estimate, header keys, settings table), declare the module and
-//! add its registration to [`REGISTRY`]: one new file, and its `mod` line
-//! and registry line here. Nothing else names it (`auto`'s choice,
-//! `crate::render::choose_integrator`, picks between the two it knows).
+//! memory estimate, header keys, settings table), and add the module's
+//! name to the list in `registry!` below: one new file, one line. Nothing
+//! else names it (`auto`'s choice, `crate::render::choose_integrator`,
+//! picks between the two it knows).
 
 pub mod albedo;
-pub mod albedo_view;
 pub mod nee;
-pub mod path;
-pub mod photon;
+
+/// Declares each integrator's module and lists its `REGISTRATION` in
+/// [`REGISTRY`], in this order, so that registering is one line.
+macro_rules! registry {
+    ($($module:ident,)*) => {
+        $(pub mod $module;)*
+
+        /// The integrators the renderer knows (see the module docs to add
+        /// one).
+        pub const REGISTRY: &[&Registration] = &[$(&$module::REGISTRATION),*];
+    };
+}
+
+registry! {
+    path,
+    photon,
+    albedo_view,
+}
 
 use crate::ray::Ray;
 use crate::sampling::{Domain, Rng};
@@ -115,15 +130,6 @@ pub struct Registration {
     /// as it used them).
     pub header_keys: &'static [&'static str],
 }
-
-/// The integrators the renderer knows. Adding one: a module here with
-/// its [`Integrator`] and its [`Registration`], its `mod` line above and
-/// one line below.
-pub const REGISTRY: &[&Registration] = &[
-    &path::REGISTRATION,
-    &photon::REGISTRATION,
-    &albedo_view::REGISTRATION,
-];
 
 /// The registration named `name`.
 pub fn find(name: &str) -> Option<&'static Registration> {
