@@ -415,6 +415,34 @@ fn the_denoising_quality_is_the_one_asked_for() {
         "{}",
         header("cp.exr")
     );
+    // `auto` takes the path tracer for a denoised image, and says why.
+    ok(
+        dir,
+        &[
+            "render",
+            SCENE,
+            "-q",
+            "--spp",
+            "1",
+            "--width",
+            "48",
+            "--height",
+            "36",
+            "--no-preview",
+            "--denoise",
+            "--integrator",
+            "auto",
+            "-o",
+            "auto.exr",
+        ],
+    );
+    let (_, attrs) = vdbphoton::image::read_exr(dir.join("auto.exr")).unwrap();
+    let get = |k: &str| attrs.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
+    assert_eq!(get("vdbphoton/integrator"), Some("path"));
+    assert!(
+        get("vdbphoton/auto").is_some_and(|w| w.contains("denoised")),
+        "{attrs:?}"
+    );
     let out = run(dir, &["render", SCENE, "--denoise-quality", "best"], &[]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1));
