@@ -65,7 +65,7 @@ impl MajorantGrid {
     /// Builds the grid over the stored region of `density`, padded by one
     /// voxel (trilinear lookups just outside it still see its values), with
     /// cells of `cell` voxels, or of a power-of-two multiple of it where the
-    /// extent would need more than [`MIN_CELL_BUDGET`] cells (or two per
+    /// extent would need more than `MIN_CELL_BUDGET` (2^22) cells (or two per
     /// brick). Returns `None` for an empty grid. Densities
     /// below zero count as zero (they are clamped at lookup, as in Cycles).
     /// Cells that reach outside the stored voxels see the background, which
