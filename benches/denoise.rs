@@ -7,28 +7,15 @@
 //! default all cores; `BENCH_QUALITY=high|balanced|fast`, default high).
 //! Needs the library (`bash scripts/install_oidn.sh`).
 
+mod common;
+
+use common::{gib, reset_peak, status_bytes};
 use std::path::Path;
 use std::time::Instant;
 use vdbphoton::film::{Film, Region};
 use vdbphoton::render::{make_integrator, run_passes, Denoiser, Silent, Stop};
 use vdbphoton::scene::SceneDesc;
 use vdbphoton::world::World;
-
-fn status_bytes(field: &str) -> u64 {
-    let text = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    text.lines()
-        .find(|l| l.starts_with(field))
-        .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
-        .map_or(0, |kib| kib * 1024)
-}
-
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
-fn gib(b: u64) -> String {
-    format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)
-}
 
 fn main() {
     if std::env::args().any(|a| a == "--list") {

@@ -27,6 +27,9 @@
 //! `BENCH_MAKE_REFERENCE=WxH,SPP` renders a lower-resolution reference
 //! with the path tracer instead (into `BENCH_DIR`) and stops.
 
+mod common;
+
+use common::{gib, reset_peak, status_bytes};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use vdbphoton::film::{Film, Region};
@@ -34,20 +37,6 @@ use vdbphoton::image::ImageRgb;
 use vdbphoton::render::{make_integrator, run_passes, Denoiser, Silent, Stop};
 use vdbphoton::scene::{SceneDesc, SceneFormat};
 use vdbphoton::world::World;
-
-/// A `/proc/self/status` field in bytes.
-fn status_bytes(field: &str) -> u64 {
-    let text = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    text.lines()
-        .find(|l| l.starts_with(field))
-        .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
-        .map_or(0, |kib| kib * 1024)
-}
-
-/// Resets the peak resident memory (VmHWM) to the current one.
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
 
 /// `img` box-filtered down by `f` along each axis.
 fn downsample(img: &ImageRgb, f: usize) -> ImageRgb {
@@ -76,10 +65,6 @@ fn crop(img: &ImageRgb, x0: usize, y0: usize, cw: usize, ch: usize) -> ImageRgb 
         }
     }
     out
-}
-
-fn gib(b: u64) -> String {
-    format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)
 }
 
 fn main() {

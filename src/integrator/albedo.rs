@@ -32,13 +32,7 @@ pub fn along(world: &World, ray: &Ray, step: f32, rng: &mut Rng) -> Rgb {
         for i in 0..n {
             let t = seg.t0 + (i as f32 + jitter) * dt;
             let m = media.eval(ray.at(t), ray.time);
-            let st = m.sigma_t();
-            let att = (-st * dt).map(f32::exp);
-            let w = Rgb::select(
-                st.cmpgt(Rgb::splat(1e-6)),
-                (Rgb::ONE - att) / st.max(Rgb::splat(1e-6)),
-                Rgb::splat(dt),
-            );
+            let (att, w) = crate::medium::Media::step_weights(m.sigma_t(), dt);
             albedo += tr * w * m.sigma_s;
             tr *= att;
             if tr.max_element() < T_MIN {
@@ -56,15 +50,5 @@ pub fn along(world: &World, ray: &Ray, step: f32, rng: &mut Rng) -> Rgb {
 
 /// The march step for `world`: its finest voxel.
 pub fn step(world: &World) -> f32 {
-    let finest = world
-        .media
-        .volumes()
-        .iter()
-        .map(|v| v.voxel_length())
-        .fold(f32::INFINITY, f32::min);
-    if finest.is_finite() {
-        finest
-    } else {
-        1.0
-    }
+    world.media.finest_voxel().unwrap_or(1.0)
 }

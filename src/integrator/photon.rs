@@ -404,22 +404,15 @@ impl PhotonIntegrator {
         max_bounces: u32,
         seed: u64,
     ) -> crate::error::Result<Self> {
-        let finest = world
-            .media
-            .volumes()
-            .iter()
-            .map(|v| v.voxel_length())
-            .fold(f32::INFINITY, f32::min);
-        let step = settings
-            .step
-            .unwrap_or(if finest.is_finite() { finest } else { 1.0 });
+        let finest = super::albedo::step(world);
+        let step = settings.step.unwrap_or(finest);
         Ok(Self {
             settings,
             photons: photons_for(&settings, world.camera.width(), world.camera.height()),
             max_bounces,
             seed,
             emitters: Emitters::new(world),
-            min_step: (if finest.is_finite() { finest } else { 1.0 }) / MAX_STEPS_PER_VOXEL,
+            min_step: finest / MAX_STEPS_PER_VOXEL,
             importance: Importance::from_camera(world, step),
             step,
             r_max: settings.radius,
@@ -626,12 +619,8 @@ impl PhotonIntegrator {
                 let p = o + d * (t0 + jitter * dt);
                 let m = media.eval(p, time);
                 let st = m.sigma_t();
-                let att = (-st * dt).map(f32::exp);
-                let w = Rgb::select(
-                    st.cmpgt(Rgb::splat(1e-6)),
-                    (Rgb::ONE - att) / st.max(Rgb::splat(1e-6)),
-                    Rgb::splat(dt),
-                ) * tr;
+                let (att, w) = crate::medium::Media::step_weights(st, dt);
+                let w = w * tr;
                 let e = w * m.emission;
                 res.emission += e;
                 steps.push(MarchStep {

@@ -534,6 +534,31 @@ impl Media {
         self.volumes.iter().any(|v| v.motion.is_some())
     }
 
+    /// The shortest voxel edge of all volumes, world units (`None` without
+    /// volumes): what the marchers step by by default.
+    pub fn finest_voxel(&self) -> Option<f32> {
+        self.volumes
+            .iter()
+            .map(|v| v.voxel_length())
+            .reduce(f32::min)
+    }
+
+    /// The weights of a march step of length `dt` through extinction
+    /// `sigma_t` (constant over the step): its transmittance e^(−σt·dt),
+    /// and ∫₀^dt e^(−σt·s) ds = (1 − e^(−σt·dt))/σt (dt where σt is
+    /// about 0), the factor that turns a source per unit length into what
+    /// the step adds.
+    #[inline]
+    pub fn step_weights(sigma_t: Rgb, dt: f32) -> (Rgb, Rgb) {
+        let att = (-sigma_t * dt).map(f32::exp);
+        let w = Rgb::select(
+            sigma_t.cmpgt(Rgb::splat(1e-6)),
+            (Rgb::ONE - att) / sigma_t.max(Rgb::splat(1e-6)),
+            Rgb::splat(dt),
+        );
+        (att, w)
+    }
+
     /// World-space bounding box of all volumes.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         self.volumes

@@ -37,12 +37,7 @@ impl Importance {
     /// transmittance at each step's cell. `None` without volumes.
     pub fn from_camera(world: &World, step: f32) -> Option<Self> {
         let (lo, hi) = world.media.bounds()?;
-        let finest = world
-            .media
-            .volumes()
-            .iter()
-            .map(|v| v.voxel_length())
-            .fold(f32::INFINITY, f32::min);
+        let finest = world.media.finest_voxel()?;
         let extent = (hi - lo).max(Vec3::splat(1e-6));
         // Cells no smaller than a voxel, nor than two pixels' footprint at
         // the volumes' near side (pixel-centre rays must reach every cell a
