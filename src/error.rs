@@ -37,9 +37,10 @@ pub enum Error {
     #[error("invalid grid: {0}")]
     InvalidGrid(String),
     /// The work was stopped by a signal (SIGINT, SIGTERM) before it
-    /// finished; nothing was written (an earlier checkpoint stays).
-    #[error("interrupted by {}: nothing written", signal_name(*signal))]
-    Interrupted { signal: i32 },
+    /// finished; nothing partial was written (an earlier checkpoint stays,
+    /// `kept` says which when there is one).
+    #[error("interrupted by {}: {}", signal_name(*signal), kept.as_deref().unwrap_or("nothing written"))]
+    Interrupted { signal: i32, kept: Option<String> },
     /// An error with where it happened (`scene.toml, [[volume]] 2`).
     #[error("{context}: {source}")]
     Context { context: String, source: Box<Error> },
@@ -51,7 +52,7 @@ impl Error {
     /// them), 1 otherwise.
     pub fn exit_code(&self) -> u8 {
         match self {
-            Error::Interrupted { signal } => (128 + *signal).clamp(0, 255) as u8,
+            Error::Interrupted { signal, .. } => (128 + *signal).clamp(0, 255) as u8,
             Error::Context { source, .. } => source.exit_code(),
             _ => 1,
         }

@@ -280,6 +280,129 @@ impl Film {
         Ok(())
     }
 
+    /// Whether the film keeps the AOV sums.
+    pub fn has_aovs(&self) -> bool {
+        self.aovs.is_some()
+    }
+
+    /// Bytes [`Self::write_sums`] writes.
+    pub fn sums_bytes(&self) -> u64 {
+        let n = self.samples.len() as u64;
+        n * (3 * 8 + 8 + 4)
+            + self.aovs.as_ref().map_or(0, |_| n * 9 * 4)
+            + self.albedo.as_ref().map_or(0, |_| n * 3 * 4)
+    }
+
+    /// Writes every sum and count, little-endian, bit for bit (a resumed
+    /// render's film, `crate::render::resume`): radiance, transmittance,
+    /// counts, then the AOVs and the albedo when kept.
+    pub fn write_sums(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
+        fn put<T, const N: usize>(
+            w: &mut impl std::io::Write,
+            v: &[T],
+            bytes: impl Fn(&T, &mut Vec<u8>),
+        ) -> std::io::Result<()> {
+            let mut buf = Vec::with_capacity(N * 4096);
+            for chunk in v.chunks(4096) {
+                buf.clear();
+                for x in chunk {
+                    bytes(x, &mut buf);
+                }
+                w.write_all(&buf)?;
+            }
+            Ok(())
+        }
+        let f32s = |b: &mut Vec<u8>, c: Rgb| {
+            for x in c.to_array() {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        };
+        put::<_, 24>(w, &self.l, |x, b| {
+            for c in x.to_array() {
+                b.extend_from_slice(&c.to_le_bytes());
+            }
+        })?;
+        put::<_, 8>(w, &self.transmittance, |x, b| {
+            b.extend_from_slice(&x.to_le_bytes())
+        })?;
+        put::<_, 4>(w, &self.samples, |x, b| {
+            b.extend_from_slice(&x.to_le_bytes())
+        })?;
+        if let Some(a) = &self.aovs {
+            put::<_, 36>(w, a, |s, b| {
+                f32s(b, s.direct);
+                f32s(b, s.indirect);
+                f32s(b, s.emission);
+            })?;
+        }
+        if let Some(a) = &self.albedo {
+            put::<_, 12>(w, a, |c, b| f32s(b, *c))?;
+        }
+        Ok(())
+    }
+
+    /// Reads what [`Self::write_sums`] wrote of a film of this layout
+    /// (region, AOVs, albedo) into this film, replacing its sums.
+    pub fn read_sums(&mut self, bytes: &[u8]) -> Result<(), String> {
+        if bytes.len() as u64 != self.sums_bytes() {
+            return Err(format!(
+                "the film's sums are {} bytes, where {} x {} pixels{}{} take {}",
+                bytes.len(),
+                self.region.width(),
+                self.region.height(),
+                if self.aovs.is_some() {
+                    " with AOVs"
+                } else {
+                    ""
+                },
+                if self.albedo.is_some() {
+                    " and albedo"
+                } else {
+                    ""
+                },
+                self.sums_bytes()
+            ));
+        }
+        let mut at = 0;
+        let mut take = |n: usize| {
+            let s = &bytes[at..at + n];
+            at += n;
+            s
+        };
+        let f64_at =
+            |s: &[u8], i: usize| f64::from_le_bytes(s[8 * i..8 * i + 8].try_into().unwrap());
+        let f32_at =
+            |s: &[u8], i: usize| f32::from_le_bytes(s[4 * i..4 * i + 4].try_into().unwrap());
+        let rgb_at =
+            |s: &[u8], i: usize| Rgb::new(f32_at(s, i), f32_at(s, i + 1), f32_at(s, i + 2));
+        for x in &mut self.l {
+            let s = take(24);
+            *x = DVec3::new(f64_at(s, 0), f64_at(s, 1), f64_at(s, 2));
+        }
+        for x in &mut self.transmittance {
+            *x = f64_at(take(8), 0);
+        }
+        for x in &mut self.samples {
+            *x = u32::from_le_bytes(take(4).try_into().unwrap());
+        }
+        if let Some(a) = &mut self.aovs {
+            for x in a {
+                let s = take(36);
+                *x = AovSums {
+                    direct: rgb_at(s, 0),
+                    indirect: rgb_at(s, 3),
+                    emission: rgb_at(s, 6),
+                };
+            }
+        }
+        if let Some(a) = &mut self.albedo {
+            for x in a {
+                *x = rgb_at(take(12), 0);
+            }
+        }
+        Ok(())
+    }
+
     /// Samples of pixel (x, y).
     pub fn samples(&self, x: u32, y: u32) -> u32 {
         self.samples[self.index(x, y)]

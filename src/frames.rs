@@ -232,7 +232,7 @@ pub fn render_job(
     let tile = opts.tile.map(|t| t.0);
     let Some(frames) = plan(desc, job, tile)? else {
         let d = scene_at(desc, None, tile)?;
-        let outcome = if job.skip_existing && d.render.output.is_file() {
+        let outcome = if job.skip_existing && crate::render::resume::is_finished(&d.render.output) {
             FrameOutcome::Skipped(d.render.output.clone())
         } else {
             FrameOutcome::Written(render_scene(&d, opts, reporter)?)
@@ -313,7 +313,7 @@ fn render_frame(
         }
     }
     let d = scene_at(desc, Some(frame), opts.tile.map(|t| t.0))?;
-    if job.skip_existing && d.render.output.is_file() {
+    if job.skip_existing && crate::render::resume::is_finished(&d.render.output) {
         return Ok(FrameOutcome::Skipped(d.render.output.clone()));
     }
     let mut o = opts.clone();

@@ -135,13 +135,10 @@ fn interrupted_render_leaves_nothing_partial() {
 fn the_last_checkpoint_survives_an_interruption() {
     let (code, dir) = interrupt("-INT", Some("0.3s"), Duration::from_millis(2500));
     assert_eq!(code, 130);
-    // The checkpoint and its preview, whole, and no temporary files.
+    // The checkpoint, its preview and its resume state (`tests/resume.rs`),
+    // whole, and no temporary files.
     let names = common::dir_entries(dir.path());
-    assert_eq!(
-        names,
-        vec!["i.exr".to_string(), "i.png".to_string()],
-        "{names:?}"
-    );
+    assert_eq!(names, vec!["i.exr", "i.exr.vdbstate", "i.png"], "{names:?}");
     let png = std::fs::read(dir.path().join("i.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG") && png.len() > 100);
     let img = vdbphoton::image::read_exr_rgb(dir.path().join("i.exr")).unwrap();

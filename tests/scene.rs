@@ -136,6 +136,7 @@ fn defaults_when_keys_are_absent() {
             },
             denoise: false,
             denoise_quality: vdbphoton::scene::DenoiseQuality::High,
+            resume: false,
         }
     );
     assert_eq!(

@@ -1,7 +1,9 @@
 //! The Slurm tooling (`tools/slurm`) on a real cluster: a 4-frame array and
 //! a frame in 4 tiles with its merge, submitted through `submit.sh`, give
 //! the same pixels as single-machine renders; a frame whose input is
-//! missing ends FAILED, and a failed tile cancels its merge.
+//! missing ends FAILED, and a failed tile cancels its merge; a tile
+//! requeued mid-render (`scontrol requeue`, as a preemption does) resumes
+//! from its checkpoint and the merged frame is the undisturbed one.
 //!
 //! Needs a cluster that answers `scontrol ping`: `SLURM_CONF` from the
 //! environment, else the one `tools/slurm/cluster.sh start` makes in
@@ -80,6 +82,7 @@ struct Record {
     state: String,
     exit_code: String,
     reason: String,
+    restarts: u32,
 }
 
 const DONE: [&str; 9] = [
@@ -131,11 +134,16 @@ impl Cluster {
     /// `tools/slurm/submit.sh ARGS` (split at spaces), returning its
     /// `KIND JOBID` lines.
     fn submit(&mut self, args: &str) -> Vec<(String, String)> {
+        // submit.sh's own options go before `--`, the render's after.
+        let (own, render) = args.split_once(" -- ").unwrap_or((args, ""));
         let mut c = self.cmd("bash");
         c.arg(format!("{TOOLS}/submit.sh"))
-            .args(args.split_whitespace())
+            .args(own.split_whitespace())
             .args(["--vdbphoton", BIN, "--logs"])
             .arg(&self.logs);
+        if !render.is_empty() {
+            c.arg("--").args(render.split_whitespace());
+        }
         let (ok, out, err) = run_limited(&mut c, Duration::from_secs(30));
         assert!(ok, "submit.sh {args:?} failed:\n{out}{err}");
         let ids: Vec<(String, String)> = out
@@ -174,6 +182,7 @@ impl Cluster {
                     state: get("JobState").unwrap_or_default(),
                     exit_code: get("ExitCode").unwrap_or_default(),
                     reason: get("Reason").unwrap_or_default(),
+                    restarts: get("Restarts").and_then(|r| r.parse().ok()).unwrap_or(0),
                 }
             })
             .collect()
@@ -319,16 +328,19 @@ absorption_color = [0.0, 0.0, 0.0]
 anisotropy = 0.5
 "#;
 
-fn state<'a>(records: &'a [Record], job: &str, task: Option<&str>) -> &'a Record {
+fn state_of<'a>(records: &'a [Record], job: &str, task: Option<&str>) -> &'a Record {
     records
         .iter()
         .find(|r| r.job == job && r.task.as_deref() == task)
         .unwrap_or_else(|| panic!("no record of job {job} task {task:?} in {records:#?}"))
 }
 
-#[test]
-fn frames_and_tiles_on_slurm() {
-    let t0 = Instant::now();
+/// The tests share the cluster's two CPUs: one at a time.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// The cluster's `slurm.conf`, or `None` (with a note) when no cluster
+/// answers outside CI.
+fn cluster_or_skip() -> Option<PathBuf> {
     let Some(conf) = cluster_conf() else {
         if std::env::var("CI").as_deref() == Ok("true") {
             panic!(
@@ -340,6 +352,16 @@ fn frames_and_tiles_on_slurm() {
             "note: no Slurm cluster answers `scontrol ping`; skipping the Slurm test \
              (run tools/slurm/selftest.sh, or tools/slurm/cluster.sh start first)"
         );
+        return None;
+    };
+    Some(conf)
+}
+
+#[test]
+fn frames_and_tiles_on_slurm() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let t0 = Instant::now();
+    let Some(conf) = cluster_or_skip() else {
         return;
     };
     // Under target/, which a real cluster's nodes see when the repository is
@@ -425,7 +447,7 @@ fn frames_and_tiles_on_slurm() {
 
     // Frames 1-4: COMPLETED, the same pixels as the single-machine renders.
     for task in ["0", "1", "2", "3"] {
-        let r = state(&records, &frames, Some(task));
+        let r = state_of(&records, &frames, Some(task));
         assert!(
             r.state == "COMPLETED" && r.exit_code == "0:0",
             "frame task {task}: {r:?}\n{}",
@@ -439,13 +461,13 @@ fn frames_and_tiles_on_slurm() {
 
     // Frame 2 in tiles: the merge ran after them and equals the full render.
     for task in ["0", "1", "2", "3"] {
-        let r = state(&records, &tiles, Some(task));
+        let r = state_of(&records, &tiles, Some(task));
         assert!(r.state == "COMPLETED", "tile {task}: {r:?}\n{}", diag());
         assert!(dir
             .join(format!("tiled/frame_0002.tiles/tile_{task}.exr"))
             .is_file());
     }
-    let r = state(&records, &merge, None);
+    let r = state_of(&records, &merge, None);
     assert!(r.state == "COMPLETED", "merge: {r:?}\n{}", diag());
     assert_same_pixels(
         &dir.join("tiled/frame_0002.exr"),
@@ -453,7 +475,7 @@ fn frames_and_tiles_on_slurm() {
     );
 
     // Frame 5 has no input: FAILED, and its log names the sequence's file.
-    let r = state(&records, &missing, Some("0"));
+    let r = state_of(&records, &missing, Some("0"));
     assert!(
         r.state == "FAILED" && r.exit_code != "0:0",
         "frame 5: {r:?}\n{}",
@@ -472,12 +494,12 @@ fn frames_and_tiles_on_slurm() {
     // Frame 3: tile 2 FAILED, the others COMPLETED, the merge CANCELLED
     // without running.
     for task in ["0", "1", "3"] {
-        let r = state(&records, &broken_tiles, Some(task));
+        let r = state_of(&records, &broken_tiles, Some(task));
         assert!(r.state == "COMPLETED", "tile {task}: {r:?}\n{}", diag());
     }
-    let r = state(&records, &broken_tiles, Some("2"));
+    let r = state_of(&records, &broken_tiles, Some("2"));
     assert!(r.state == "FAILED", "tile 2: {r:?}\n{}", diag());
-    let r = state(&records, &broken_merge, None);
+    let r = state_of(&records, &broken_merge, None);
     assert!(
         r.state == "CANCELLED" && r.reason.contains("Dependency"),
         "merge after a failed tile: {r:?}\n{}",
@@ -489,7 +511,7 @@ fn frames_and_tiles_on_slurm() {
         .exists());
 
     // No scene: FAILED with a clear message in the job's log.
-    let r = state(&records, &noscene, Some("0"));
+    let r = state_of(&records, &noscene, Some("0"));
     assert!(r.state == "FAILED", "no scene: {r:?}\n{}", diag());
     let log = std::fs::read_to_string(logs.join(format!("noscene-{noscene}_0.out"))).unwrap();
     assert!(log.contains("scene file not found"), "{log}");
@@ -500,5 +522,130 @@ fn frames_and_tiles_on_slurm() {
         submitted.as_secs_f64(),
         jobs_done.as_secs_f64(),
         t0.elapsed().as_secs_f64()
+    );
+}
+
+#[test]
+fn a_requeued_tile_resumes_from_its_checkpoint() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let t0 = Instant::now();
+    let Some(conf) = cluster_or_skip() else {
+        return;
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix("vdbphoton-requeue")
+        .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
+        .unwrap();
+    let dir = tmp.path().to_path_buf();
+    let mut cluster = Cluster {
+        conf,
+        logs: dir.join("logs"),
+        dir: dir.clone(),
+        jobs: Vec::new(),
+    };
+    vdbphoton(&dir, "generate cloud f_0001.vdb --res 16 --seed 1");
+    // One frame, long enough (about 3 s a tile on one CPU) to be requeued
+    // in the middle.
+    let scene = SCENE
+        .replace("spp = 4", "spp = 800")
+        .replace("out/frame_{frame:04}.exr", "out/frame.exr")
+        .replace("f_{frame:04}.vdb", "f_0001.vdb");
+    std::fs::write(dir.join("one.toml"), scene).unwrap();
+    let ids = cluster.submit("tile one.toml - 2 tiled/frame.exr --name rq -- --checkpoint 0.2s");
+    let (tiles, merge) = (ids[0].1.clone(), ids[1].1.clone());
+    let task = format!("{tiles}_1");
+
+    // Tile 1 running with a checkpoint: requeue it, as a preemption would.
+    let state = dir.join("tiled/frame.tiles/tile_1.exr.vdbstate");
+    while !state.exists() {
+        assert!(
+            t0.elapsed() < JOBS_TIMEOUT,
+            "tile 1 wrote no checkpoint\n{}",
+            cluster.diagnostics()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let checkpointed = t0.elapsed();
+    let (ok, out, err) = run_limited(
+        cluster.cmd("scontrol").args(["requeue", &task]),
+        Duration::from_secs(20),
+    );
+    assert!(ok, "scontrol requeue {task}: {out}{err}");
+    let requeued = t0.elapsed();
+    // Slurm holds a requeued job back for two minutes (its BeginTime):
+    // release it once it is pending again.
+    loop {
+        let r = cluster.records(&task);
+        if r.iter().any(|r| r.state == "PENDING" && r.restarts > 0) {
+            break;
+        }
+        assert!(
+            t0.elapsed() < JOBS_TIMEOUT,
+            "{task} was not requeued: {r:?}\n{}",
+            cluster.diagnostics()
+        );
+        std::thread::sleep(POLL);
+    }
+    let (ok, out, err) = run_limited(
+        cluster
+            .cmd("scontrol")
+            .args(["update", &format!("JobId={task}"), "StartTime=now"]),
+        Duration::from_secs(20),
+    );
+    assert!(ok, "scontrol update {task} StartTime=now: {out}{err}");
+    let released = t0.elapsed();
+
+    // The undisturbed frame, on this machine, while the cluster works.
+    vdbphoton(&dir, "render one.toml -o ref.exr --no-preview");
+    let records = cluster.wait_all();
+    let done = t0.elapsed();
+    let diag = || cluster.diagnostics();
+    for t in ["0", "1"] {
+        let r = state_of(&records, &tiles, Some(t));
+        assert!(r.state == "COMPLETED", "tile {t}: {r:?}\n{}", diag());
+    }
+    assert_eq!(
+        state_of(&records, &tiles, Some("1")).restarts,
+        1,
+        "{}",
+        diag()
+    );
+    let r = state_of(&records, &merge, None);
+    assert!(r.state == "COMPLETED", "merge: {r:?}\n{}", diag());
+
+    // The log: stopped with a checkpoint, run again, resumed from it.
+    let log = std::fs::read_to_string(cluster.logs.join(format!("rq-tiles-{tiles}_1.out")))
+        .unwrap_or_else(|e| panic!("log of tile 1: {e}\n{}", diag()));
+    let kept = log
+        .lines()
+        .find(|l| l.contains("interrupted by SIGTERM") && l.contains("keeps"))
+        .unwrap_or_else(|| panic!("no last checkpoint on SIGTERM:\n{log}"));
+    let resumed = log
+        .lines()
+        .find(|l| l.starts_with("resumed: "))
+        .unwrap_or_else(|| panic!("the requeued task did not resume:\n{log}"));
+    assert!(log.contains("run 2 (requeued)"), "{log}");
+    let passes = |l: &str, word: &str| -> u32 {
+        l.split(word)
+            .nth(1)
+            .unwrap()
+            .split(' ')
+            .nth(1)
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(passes(kept, "keeps"), passes(resumed, "after"), "{log}");
+    assert!(passes(resumed, "after") > 0 && passes(resumed, "after") < 800);
+    assert!(!state.exists(), "the finished tile keeps its state");
+
+    assert_same_pixels(&dir.join("tiled/frame.exr"), &dir.join("ref.exr"));
+    eprintln!(
+        "slurm requeue: tile 1 checkpointed at {:.1} s, requeued at {:.1} s ({kept}), \
+         released at {:.1} s, {resumed}; all done at {:.1} s; merged frame identical to the undisturbed render",
+        checkpointed.as_secs_f64(),
+        requeued.as_secs_f64(),
+        released.as_secs_f64(),
+        done.as_secs_f64()
     );
 }

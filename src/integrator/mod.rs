@@ -102,6 +102,80 @@ pub trait Integrator: Sync {
     fn attributes(&self) -> Vec<(String, String)> {
         Vec::new()
     }
+    /// What the next pass depends on beyond the pass number (the photon
+    /// integrator's storage scale, first radius, measured scattering order
+    /// and totals), saved with a checkpoint so that a resumed render
+    /// (`crate::render::resume`) goes on exactly as if it had never
+    /// stopped. Values as [`state`] writes them (floats by their bits).
+    /// Nothing for an integrator whose passes depend only on their number.
+    fn state(&self) -> PassState {
+        Vec::new()
+    }
+    /// Takes back what [`Integrator::state`] saved after the same passes of
+    /// the same scene; on an error the integrator is as it was.
+    fn restore(&mut self, _world: &World, state: &PassState) -> std::result::Result<(), String> {
+        match state.first() {
+            None => Ok(()),
+            Some((k, _)) => Err(format!("the {} integrator keeps no '{k}'", self.name())),
+        }
+    }
+}
+
+/// An integrator's state between passes ([`Integrator::state`]): named
+/// values as text.
+pub type PassState = Vec<(String, String)>;
+
+/// Writing and reading [`PassState`] values so that they come back bit for
+/// bit: floats as the hexadecimal of their bits, options as `none`.
+pub mod state {
+    use super::PassState;
+
+    /// An `f32` by its bits.
+    pub fn f32(x: f32) -> String {
+        format!("{:08x}", x.to_bits())
+    }
+    /// An `f64` by its bits.
+    pub fn f64(x: f64) -> String {
+        format!("{:016x}", x.to_bits())
+    }
+    /// An optional `f32`.
+    pub fn opt_f32(x: Option<f32>) -> String {
+        x.map_or_else(|| "none".into(), f32)
+    }
+
+    /// The value of `key` in `state`.
+    pub fn get<'a>(state: &'a PassState, key: &str) -> Result<&'a str, String> {
+        state
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+            .ok_or_else(|| format!("no '{key}' in the integrator's state"))
+    }
+    fn bad(key: &str, v: &str) -> String {
+        format!("the integrator's '{key}' is '{v}', not a value it writes")
+    }
+    pub fn get_f32(state: &PassState, key: &str) -> Result<f32, String> {
+        let v = get(state, key)?;
+        u32::from_str_radix(v, 16)
+            .map(f32::from_bits)
+            .map_err(|_| bad(key, v))
+    }
+    pub fn get_f64(state: &PassState, key: &str) -> Result<f64, String> {
+        let v = get(state, key)?;
+        u64::from_str_radix(v, 16)
+            .map(f64::from_bits)
+            .map_err(|_| bad(key, v))
+    }
+    pub fn get_opt_f32(state: &PassState, key: &str) -> Result<Option<f32>, String> {
+        match get(state, key)? {
+            "none" => Ok(None),
+            _ => get_f32(state, key).map(Some),
+        }
+    }
+    pub fn get_u64(state: &PassState, key: &str) -> Result<u64, String> {
+        let v = get(state, key)?;
+        v.parse().map_err(|_| bad(key, v))
+    }
 }
 
 /// Everything the renderer knows of an integrator, in one place: its

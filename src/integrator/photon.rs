@@ -584,6 +584,50 @@ impl Integrator for PhotonIntegrator {
         }
         a
     }
+
+    /// The pilot's measurements and the radius chosen by the first pass
+    /// (everything a pass takes from those before it), and the totals.
+    fn state(&self) -> super::PassState {
+        use super::state::{f32, f64, opt_f32};
+        let t = &self.totals;
+        [
+            ("store", opt_f32(self.store)),
+            ("r_max", opt_f32(self.r_max)),
+            ("order", f64(self.order)),
+            ("passes", t.passes.to_string()),
+            ("emitted", t.emitted.to_string()),
+            ("stored", t.stored.to_string()),
+            ("last_stored", t.last_stored.to_string()),
+            ("first_r_max", f32(t.r_max)),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect()
+    }
+
+    fn restore(&mut self, _world: &World, s: &super::PassState) -> Result<(), String> {
+        use super::state::{get_f32, get_f64, get_opt_f32, get_u64};
+        let store = get_opt_f32(s, "store")?;
+        let r_max = get_opt_f32(s, "r_max")?;
+        let order = get_f64(s, "order")?;
+        let passes = u32::try_from(get_u64(s, "passes")?).map_err(|e| e.to_string())?;
+        let totals = PhotonTotals {
+            passes,
+            emitted: get_u64(s, "emitted")?,
+            stored: get_u64(s, "stored")?,
+            last_stored: get_u64(s, "last_stored")?,
+            r_max: get_f32(s, "first_r_max")?,
+        };
+        self.store = store;
+        self.r_max = r_max;
+        self.order = order;
+        // The tuning the pilot chose (the first pass runs it).
+        if store.is_some() {
+            self.tuning = Tuning::of(&self.settings, order);
+        }
+        self.totals = totals;
+        Ok(())
+    }
 }
 
 impl PhotonIntegrator {

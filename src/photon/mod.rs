@@ -153,7 +153,7 @@ pub fn trace(
         .map(|c| {
             let mut out = Vec::new();
             let mut sum = Flights::default();
-            if crate::interrupt::requested().is_some() {
+            if crate::interrupt::abandon() {
                 return (out, sum);
             }
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {

@@ -15,10 +15,11 @@ use std::path::{Path, PathBuf};
 mod overrides;
 pub mod passes;
 pub mod report;
+pub mod resume;
 
 pub use overrides::Overrides;
 
-pub use passes::{run_passes, Stop};
+pub use passes::{run_passes, run_passes_from, Stop};
 pub use report::{FrameOutcome, Progress, Reporter, Silent, Summary, Throttle};
 use std::time::{Duration, Instant};
 
@@ -249,6 +250,7 @@ pub fn scene_hash(desc: &SceneDesc) -> String {
     d.render.output = PathBuf::new();
     d.render.preview = None;
     d.render.frames = None;
+    d.render.resume = false;
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for b in format!("{d:?}").bytes() {
         h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
@@ -403,6 +405,48 @@ impl Denoiser {
     }
 }
 
+/// Takes up a killed render's state at `path` when it is this render's
+/// (`id`) and within `stop`: the film and the integrator then hold its
+/// passes, and the position returned is where it was. Otherwise (none, or
+/// another render's, or damaged: reported) the render starts afresh and
+/// `path` stays until its first checkpoint replaces it.
+fn resume_from(
+    path: &Path,
+    id: &resume::Identity,
+    stop: Stop,
+    world: &World,
+    integrator: &mut dyn Integrator,
+    film: &mut Film,
+    reporter: &dyn Reporter,
+) -> resume::Position {
+    let refuse = |why: String| {
+        reporter.warning(&format!(
+            "not resuming from '{}': {why}; the render starts from its first pass",
+            path.display()
+        ));
+        resume::Position::default()
+    };
+    let state = match resume::read(path, id, film) {
+        Ok(None) => return resume::Position::default(),
+        Ok(Some(s)) => s,
+        Err(why) => return refuse(why),
+    };
+    if let Stop::Passes(n) = stop {
+        if state.at.passes > n {
+            return refuse(format!(
+                "it holds {} passes, more than the {n} this render makes",
+                state.at.passes
+            ));
+        }
+    }
+    if let Err(why) = integrator.restore(world, &state.integrator) {
+        return refuse(why);
+    }
+    *film = state.film;
+    reporter.resumed(path, state.at.passes, state.at.seconds);
+    state.at
+}
+
 /// The pixels a render covers: the whole image, `--region` or `--tile`.
 pub fn region_of(desc: &SceneDesc, opts: &RenderOptions) -> Result<Region> {
     let (w, h) = (desc.render.width, desc.render.height);
@@ -485,6 +529,13 @@ pub fn render_scene(
             if part { "at merge" } else { "done" }.into(),
         ));
     }
+    // One render at a time writes an output and its state; the lock also
+    // clears what a killed render left half-written.
+    let _lock = resume::lock(&r.output)?;
+    let state_path = resume::state_path(&r.output);
+    // A stop request (a farm's SIGTERM) lets a checkpointing render finish
+    // its pass and write a last checkpoint.
+    let _finish = opts.checkpoint.map(|_| crate::interrupt::finish_passes());
     let run = || -> Result<Summary> {
         let world = World::load(desc)?;
         let grids: u64 = world
@@ -516,37 +567,71 @@ pub fn render_scene(
             Some(t) => Stop::Time(t),
             None => Stop::Passes(r.spp.div_ceil(per_pass).max(1)),
         };
-        let t0 = Instant::now();
+        // (The identity hashes the executable: only when a state is in play.)
+        let id = (r.resume || opts.checkpoint.is_some())
+            .then(|| resume::Identity::of(desc, integrator.name(), &film));
+        let start = match &id {
+            Some(id) if r.resume => resume_from(
+                &state_path,
+                id,
+                stop,
+                &world,
+                integrator.as_mut(),
+                &mut film,
+                reporter,
+            ),
+            _ => resume::Position::default(),
+        };
         let mut last_checkpoint = Instant::now();
-        let passes = run_passes(
+        let mut saved = start.passes;
+        let at = run_passes_from(
             &world,
             integrator.as_mut(),
             &mut film,
             r.seed,
             stop,
+            start,
             reporter,
-            |film, integrator, passes| {
-                let Some(every) = opts.checkpoint else {
+            |film, integrator, at, last| {
+                let (Some(every), Some(id)) = (opts.checkpoint, &id) else {
                     return Ok(());
                 };
-                if last_checkpoint.elapsed() < every {
+                if at.passes == saved || (!last && last_checkpoint.elapsed() < every) {
                     return Ok(());
                 }
+                // The state first: an EXR with a state beside it is a
+                // checkpoint (`resume::is_finished`).
+                resume::write(&state_path, id, at, &integrator.state(), film)?;
                 let attrs = attributes(
                     desc,
                     integrator,
-                    passes,
-                    passes * per_pass,
-                    t0.elapsed().as_secs_f64(),
+                    at.passes,
+                    at.passes * per_pass,
+                    at.seconds,
                     &extra,
                 );
                 write_outputs(desc, film, &attrs, opts.view, denoiser.as_ref(), true)?;
-                reporter.checkpoint(&r.output, passes);
+                reporter.checkpoint(&r.output, at.passes);
+                saved = at.passes;
                 last_checkpoint = Instant::now();
                 Ok(())
             },
-        )?;
-        let render_seconds = t0.elapsed().as_secs_f64();
+        )
+        .map_err(|e| match e {
+            // The state written or resumed from keeps `saved` passes.
+            Error::Interrupted { signal, kept: None } => Error::Interrupted {
+                signal,
+                kept: (saved > 0).then(|| {
+                    format!(
+                        "the checkpoint '{}' keeps {saved} passes; --resume goes on from them",
+                        r.output.display()
+                    )
+                }),
+            },
+            e => e,
+        })?;
+        let render_seconds = at.seconds;
+        let passes = at.passes;
         let tw = Instant::now();
         let spp = passes * per_pass;
         let attrs = attributes(
@@ -557,7 +642,19 @@ pub fn render_scene(
             render_seconds,
             &extra,
         );
-        let outputs = write_outputs(desc, &film, &attrs, opts.view, denoiser.as_ref(), false)?;
+        let written = write_outputs(desc, &film, &attrs, opts.view, denoiser.as_ref(), false);
+        // The render is finished once its EXR is: its state goes (even when
+        // only the denoising failed: the raw image is written).
+        if r.output.is_file() {
+            match std::fs::remove_file(&state_path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => reporter.warning(&format!(
+                    "cannot remove the finished render's state '{}': {e}",
+                    state_path.display()
+                )),
+                _ => {}
+            }
+        }
+        let outputs = written?;
         for p in &outputs {
             reporter.saved(p);
         }

@@ -30,6 +30,8 @@ pub struct Overrides {
     pub denoise: bool,
     /// The denoiser's quality.
     pub denoise_quality: Option<crate::scene::DenoiseQuality>,
+    /// Resume from a killed render's state (on when either asks).
+    pub resume: bool,
 }
 
 impl Overrides {
@@ -69,6 +71,7 @@ impl Overrides {
         }
         r.aovs |= self.aovs;
         r.denoise |= self.denoise;
+        r.resume |= self.resume;
         if let Some(q) = self.denoise_quality {
             r.denoise_quality = q;
         }

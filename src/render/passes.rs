@@ -16,6 +16,7 @@
 //! reference renders do.
 
 use super::report::{Progress, Reporter};
+use super::resume::Position;
 use crate::error::Result;
 use crate::film::{Film, Region, SampleResult};
 use crate::integrator::{Integrator, PathIntegrator, SampleKey};
@@ -118,7 +119,7 @@ pub fn render_pass(
     let film = Mutex::new(film);
     tiles.into_par_iter().for_each(|t| {
         // A signal asked to stop: leave the rest (the caller sees it).
-        if crate::interrupt::requested().is_some() {
+        if crate::interrupt::abandon() {
             return;
         }
         let mut out = Vec::with_capacity(t.pixels() * spp as usize);
@@ -221,32 +222,69 @@ pub fn run_passes(
     reporter: &dyn Reporter,
     mut after_pass: impl FnMut(&Film, &dyn Integrator, u32) -> Result<()>,
 ) -> Result<u32> {
+    run_passes_from(
+        world,
+        integrator,
+        film,
+        seed,
+        stop,
+        Position::default(),
+        reporter,
+        |f, i, at, _| after_pass(f, i, at.passes),
+    )
+    .map(|at| at.passes)
+}
+
+/// [`run_passes`] going on from `start` (a resumed render: the film and the
+/// integrator hold its first `start.passes` passes; a time budget counts
+/// `start.seconds`). `after_pass(film, integrator, position, last)` is
+/// called after each pass, and with `last` set once a stop was asked
+/// (SIGINT, SIGTERM): within [`crate::interrupt::finish_passes`] the pass
+/// in progress finishes first, so that a last checkpoint keeps it.
+#[allow(clippy::too_many_arguments)]
+pub fn run_passes_from(
+    world: &World,
+    integrator: &mut dyn Integrator,
+    film: &mut Film,
+    seed: u64,
+    stop: Stop,
+    start: Position,
+    reporter: &dyn Reporter,
+    mut after_pass: impl FnMut(&Film, &dyn Integrator, Position, bool) -> Result<()>,
+) -> Result<Position> {
     let t0 = Instant::now();
-    let mut passes = 0u32;
-    let mut last_pass = Duration::ZERO;
+    let mut at = start;
+    let elapsed = |t0: Instant| start.seconds + t0.elapsed().as_secs_f64();
     loop {
         let done = match stop {
-            Stop::Time(limit) => passes > 0 && t0.elapsed() + last_pass > limit,
-            Stop::Passes(n) => passes >= n,
+            Stop::Time(limit) => at.passes > 0 && elapsed(t0) + at.last_pass > limit.as_secs_f64(),
+            Stop::Passes(n) => at.passes >= n,
         };
         if done {
-            return Ok(passes);
+            return Ok(at);
         }
-        crate::interrupt::check()?;
+        if let Err(e) = crate::interrupt::check() {
+            after_pass(film, integrator, at, true)?;
+            return Err(e);
+        }
         let tp = Instant::now();
-        integrator.begin_pass(world, passes);
-        let done_before = passes;
+        integrator.begin_pass(world, at.passes);
+        let done_before = at.passes;
         let report = |done: usize, total: usize| {
             let in_pass = done as f64 / total.max(1) as f64;
-            let elapsed = t0.elapsed().as_secs_f64();
+            let elapsed = elapsed(t0);
             let (fraction, eta) = match stop {
                 Stop::Time(limit) => {
                     let l = limit.as_secs_f64().max(1e-9);
                     ((elapsed / l).min(1.0), Some((l - elapsed).max(0.0)))
                 }
                 Stop::Passes(n) => {
+                    // The ETA from this run's rate (a resumed render's
+                    // earlier passes ran elsewhere, perhaps slower).
                     let f = (done_before as f64 + in_pass) / n.max(1) as f64;
-                    (f, (f > 0.0).then(|| elapsed / f - elapsed))
+                    let f0 = start.passes as f64 / n.max(1) as f64;
+                    let run = t0.elapsed().as_secs_f64();
+                    (f, (f > f0).then(|| run * (1.0 - f) / (f - f0)))
                 }
             };
             reporter.progress(Progress {
@@ -256,12 +294,20 @@ pub fn run_passes(
                 passes: done_before,
             });
         };
-        render_pass(world, integrator, film, seed, passes, &report);
-        // An interrupted pass is incomplete: stop before anything is
+        render_pass(world, integrator, film, seed, at.passes, &report);
+        // An abandoned pass is incomplete: stop before anything is
         // written from it.
-        crate::interrupt::check()?;
-        passes += 1;
-        last_pass = tp.elapsed();
-        after_pass(film, integrator, passes)?;
+        if crate::interrupt::abandon() {
+            crate::interrupt::check()?;
+        }
+        at.passes += 1;
+        at.last_pass = tp.elapsed().as_secs_f64();
+        at.seconds = elapsed(t0);
+        after_pass(
+            film,
+            integrator,
+            at,
+            crate::interrupt::requested().is_some(),
+        )?;
     }
 }

@@ -29,6 +29,9 @@ pub trait Reporter: Sync {
     fn progress(&self, _p: Progress) {}
     /// A checkpoint was written.
     fn checkpoint(&self, _path: &Path, _passes: u32) {}
+    /// The render goes on from the state at `state`, which holds `passes`
+    /// passes that took `seconds`.
+    fn resumed(&self, _state: &Path, _passes: u32, _seconds: f64) {}
     /// A finished render wrote this file (the EXR, then the preview).
     fn saved(&self, _path: &Path) {}
     /// Frame `frame`, the `index`-th of `count`, starts.

@@ -161,6 +161,9 @@ pub struct RenderDesc {
     /// How hard the denoiser works on the finished image
     /// (`denoise_quality`, Blender's Denoising › Quality).
     pub denoise_quality: DenoiseQuality,
+    /// Go on from the state a killed render's last checkpoint left beside
+    /// the EXR (`resume`, `--resume`; `crate::render::resume`).
+    pub resume: bool,
 }
 
 /// Blender's Motion Blur panel (Render Properties): whether moving
@@ -272,6 +275,7 @@ impl Default for RenderDesc {
             motion_blur: MotionBlurDesc::default(),
             denoise: false,
             denoise_quality: DenoiseQuality::High,
+            resume: false,
         }
     }
 }

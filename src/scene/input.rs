@@ -150,6 +150,7 @@ pub(crate) struct RenderIn {
     fps: Option<f64>,
     denoise: Option<bool>,
     denoise_quality: Option<DenoiseQualityIn>,
+    resume: Option<bool>,
     /// The integrators' tables `[render.NAME]`, taken out of `[render]`
     /// before serde reads it (`super::parse_toml`): their names are not
     /// known here.
@@ -597,6 +598,7 @@ impl RenderIn {
                 Some(DenoiseQualityIn::Balanced) => DenoiseQuality::Balanced,
                 Some(DenoiseQualityIn::Fast) => DenoiseQuality::Fast,
             },
+            resume: self.resume.unwrap_or(d.resume),
         })
     }
 }

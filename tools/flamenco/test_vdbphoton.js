@@ -525,6 +525,7 @@ function settings(overrides) {
         preview: true,
         tiles: 0,
         skip_existing: true,
+        resume: true,
         extra_args: "",
         merge_args: "",
         flamenco_previews: true,
@@ -533,11 +534,14 @@ function settings(overrides) {
     };
 }
 
+// What `resume` (on by default) adds to every render task.
+const RESUME = ["--checkpoint", "60s", "--resume"];
+
 // A whole-frame render task, spelled out.
 function chunkTask(frames, extra) {
     return {
         name: `render-${frames}`, type: "vdbphoton", deps: [],
-        argv: [EXE, "render", SCENE, "--frames", frames, "-o", OUT, "--preview", PNG, "--skip-existing"].concat(extra || []),
+        argv: [EXE, "render", SCENE, "--frames", frames, "-o", OUT, "--preview", PNG, "--skip-existing"].concat(RESUME, extra || []),
     };
 }
 
@@ -714,7 +718,7 @@ check("a single frame: one task; an output without a frame pattern is allowed", 
     assert.deepEqual(summarise(job), [chunkTask("47")]);
     ({job} = compile(settings({frames: "47", output: "/farm/render/still.exr"})));
     assert.deepEqual(summarise(job)[0].argv,
-        [EXE, "render", SCENE, "--frames", "47", "-o", "/farm/render/still.exr", "--preview", "/farm/render/still.png", "--skip-existing"]);
+        [EXE, "render", SCENE, "--frames", "47", "-o", "/farm/render/still.exr", "--preview", "/farm/render/still.png", "--skip-existing"].concat(RESUME));
 });
 
 check("frames from 1001, chunk size 4 (and Blender's 1001..1010 notation)", () => {
@@ -732,7 +736,7 @@ check("tiles 1 is the same as no tiling", () => {
 
 // The tasks of one tiled frame, spelled out.
 function tiledFrame(frame, n, opts) {
-    const o = {dir: "/farm/render/sh010", stem: `smoke_${String(frame).padStart(4, "0")}`, render: [], merge: [], preview: true, skip: true, ...opts};
+    const o = {dir: "/farm/render/sh010", stem: `smoke_${String(frame).padStart(4, "0")}`, render: [], merge: [], preview: true, skip: true, resume: RESUME, ...opts};
     const tiles = [];
     const tasks = [];
     for (let i = 0; i < n; i++) {
@@ -741,7 +745,7 @@ function tiledFrame(frame, n, opts) {
         tasks.push({
             name: `render-${frame}-tile-${i}of${n}`, type: "vdbphoton", deps: [],
             argv: [EXE, "render", SCENE, "--frame", String(frame), "--tile", `${i}/${n}`, "-o", tile, "--no-preview"]
-                .concat(o.skip ? ["--skip-existing"] : [], o.render),
+                .concat(o.skip ? ["--skip-existing"] : [], o.resume, o.render),
         });
     }
     tasks.push({
@@ -795,21 +799,30 @@ check("extra_args go to render tasks, merge_args to merge tasks, shell-split", (
     assert.deepEqual(summarise(job), [chunkTask("5", ["--region", "0,0,64,64"])]);
 });
 
-check("skip_existing and preview off", () => {
-    let {job} = compile(settings({frames: "1-2", chunk_size: 2, skip_existing: false, preview: false}));
+check("skip_existing, resume and preview off", () => {
+    let {job} = compile(settings({frames: "1-2", chunk_size: 2, skip_existing: false, resume: false, preview: false}));
     assert.deepEqual(summarise(job)[0].argv, [EXE, "render", SCENE, "--frames", "1,2", "-o", OUT, "--no-preview"]);
-    ({job} = compile(settings({frames: "3", tiles: 2, skip_existing: false, preview: false})));
-    assert.deepEqual(summarise(job), tiledFrame(3, 2, {skip: false, preview: false}));
+    ({job} = compile(settings({frames: "3", tiles: 2, skip_existing: false, resume: false, preview: false})));
+    assert.deepEqual(summarise(job), tiledFrame(3, 2, {skip: false, resume: [], preview: false}));
+});
+
+check("resume: the artist's own --checkpoint interval is kept, --resume is the job type's", () => {
+    let {job} = compile(settings({frames: "1", extra_args: "--checkpoint 5m"}));
+    assert.deepEqual(summarise(job)[0].argv,
+        [EXE, "render", SCENE, "--frames", "1", "-o", OUT, "--preview", PNG, "--skip-existing", "--resume", "--checkpoint", "5m"]);
+    ({job} = compile(settings({frames: "2", tiles: 2, extra_args: "--checkpoint=30s"})));
+    assert.deepEqual(summarise(job), tiledFrame(2, 2, {resume: ["--resume"], render: ["--checkpoint=30s"]}));
+    expectError(settings({frames: "1", extra_args: "--resume"}), /--resume/);
 });
 
 check("worker commands: blender-render (previews in Flamenco) and exec run the same argv", () => {
     const a = compile(settings({frames: "1-2", chunk_size: 2, flamenco_previews: true})).job.tasks[0].commands[0];
     assert.deepEqual(a, {name: "blender-render", totalStepCount: 0, parameters: {
         exe: EXE, exeArgs: "", argsBefore: ["render"], blendfile: SCENE,
-        args: ["--frames", "1,2", "-o", OUT, "--preview", PNG, "--skip-existing"]}});
+        args: ["--frames", "1,2", "-o", OUT, "--preview", PNG, "--skip-existing"].concat(RESUME)}});
     const b = compile(settings({frames: "1-2", chunk_size: 2, flamenco_previews: false})).job.tasks[0].commands[0];
     assert.deepEqual(b, {name: "exec", totalStepCount: 0, parameters: {
-        exe: EXE, args: ["render", SCENE, "--frames", "1,2", "-o", OUT, "--preview", PNG, "--skip-existing"]}});
+        exe: EXE, args: ["render", SCENE, "--frames", "1,2", "-o", OUT, "--preview", PNG, "--skip-existing"].concat(RESUME)}});
     assert.deepEqual(workerArgv(a, "a"), workerArgv(b, "b"));
     const m = compile(settings({frames: "9", tiles: 2, flamenco_previews: false})).job.tasks[2].commands[0];
     assert.deepEqual(m, {name: "exec", totalStepCount: 0, parameters: {exe: EXE, args: ["merge",

@@ -68,6 +68,8 @@ const JOB_TYPE = {
           description: "0 or 1: render whole frames. N > 1: render each frame as N tiles (one task each, into a 'tiles' folder beside the output), then merge them in one task per frame" },
         { key: "skip_existing", label: "Skip Existing", type: "bool", default: true,
           description: "Skip frames (and tiles) whose EXR already exists, so that requeued tasks do not redo finished work" },
+        { key: "resume", label: "Resume Requeued Tasks", type: "bool", default: true,
+          description: "Render tasks checkpoint every 60 s (unless Extra Render Arguments give --checkpoint) and a requeued or restarted task resumes from its own last checkpoint (--resume), to the same pixels as an undisturbed task" },
         { key: "extra_args", label: "Extra Render Arguments", type: "string", default: "",
           description: "More vdbphoton render options, split like a shell command line. Example: --spp 512 --view agx" },
         { key: "merge_args", label: "Extra Merge Arguments", type: "string", default: "",
@@ -86,7 +88,7 @@ const MAX_TILES = 1024;
 
 // Options the job type sets itself, so extra arguments must not repeat them
 // (the CLI refuses an option given twice).
-const RENDER_OPTIONS_SET_HERE = ["-o", "--output", "--frames", "--frame", "--tile", "--preview", "--no-preview", "--skip-existing"];
+const RENDER_OPTIONS_SET_HERE = ["-o", "--output", "--frames", "--frame", "--tile", "--preview", "--no-preview", "--skip-existing", "--resume"];
 const MERGE_OPTIONS_SET_HERE = ["--preview"];
 
 function compileJob(job) {
@@ -334,6 +336,15 @@ function previewOf(exrPath) {
 
 // ----------------------------------------------------------------- tasks
 
+// With `resume`: checkpoints (every 60 s unless the extra arguments set
+// --checkpoint) and --resume, so a task Flamenco requeues (a worker lost, a
+// task requeued by hand) goes on from its own last checkpoint.
+function resumeArgs(s, extraArgs) {
+    if (!s.resume) return [];
+    const ownCheckpoint = extraArgs.some((a) => a === "--checkpoint" || a.startsWith("--checkpoint="));
+    return (ownCheckpoint ? [] : ["--checkpoint", "60s"]).concat(["--resume"]);
+}
+
 // One render task per chunk of frames. The output keeps its frame pattern:
 // vdbphoton expands it per frame.
 function authorChunkTasks(job, s, extraArgs) {
@@ -343,6 +354,7 @@ function authorChunkTasks(job, s, extraArgs) {
         const args = ["--frames", chunk, "-o", s.output]
             .concat(s.preview ? ["--preview", previewOf(s.output)] : ["--no-preview"])
             .concat(s.skip_existing ? ["--skip-existing"] : [])
+            .concat(resumeArgs(s, extraArgs))
             .concat(extraArgs);
         task.addCommand(vdbphotonCommand(s, "render", s.scene, args));
         job.addTask(task);
@@ -363,6 +375,7 @@ function authorTiledFrame(job, s, frame, extraArgs, mergeArgs) {
         const task = author.Task(`render-${frame}-tile-${i}of${s.tiles}`, TASK_TYPE);
         const args = ["--frame", String(frame), "--tile", `${i}/${s.tiles}`, "-o", tilePath, "--no-preview"]
             .concat(s.skip_existing ? ["--skip-existing"] : [])
+            .concat(resumeArgs(s, extraArgs))
             .concat(extraArgs);
         task.addCommand(vdbphotonCommand(s, "render", s.scene, args));
         job.addTask(task);

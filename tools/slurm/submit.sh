@@ -34,13 +34,19 @@
 # Paths (scene, outputs, logs, vdbphoton) are made absolute here; every node
 # must see them at the same paths (shared storage). Job scripts: frames.sbatch,
 # tiles.sbatch, merge.sbatch beside this file.
+#
+# Preemption: the render tasks are requeueable (--requeue), get SIGTERM 60 s
+# before their time limit (--signal=B:TERM@60), and render with
+# --checkpoint 60s --resume (a --checkpoint among the RENDER ARGS sets the
+# interval), so a preempted or requeued task (`scontrol requeue ID`) goes on
+# from its own last checkpoint to the same pixels (tools/slurm/README.md).
 set -euo pipefail
 
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 me=submit.sh
 
 usage() {
-    sed -n '2,37p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+    sed -n '2,42p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
     exit 2
 }
 die() {

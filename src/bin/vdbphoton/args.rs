@@ -171,9 +171,20 @@ pub struct RenderArgs {
     /// instead of until the sample count.
     #[arg(long, value_parser = units::parse_duration)]
     pub time: Option<std::time::Duration>,
-    /// Rewrite the outputs this often during the render (e.g. 60s).
+    /// Rewrite the outputs this often during the render (e.g. 60s), with
+    /// the state `--resume` goes on from (OUTPUT.vdbstate); a SIGTERM or
+    /// SIGINT then finishes the pass in progress and writes a last
+    /// checkpoint before the render stops.
     #[arg(long, value_parser = units::parse_duration)]
     pub checkpoint: Option<std::time::Duration>,
+    /// Go on from the state the last checkpoint of a killed render left
+    /// beside the EXR, when it is this render's (same scene, settings and
+    /// build); the image is then the one the render would have made
+    /// uninterrupted, and --time counts the time already spent. Without a
+    /// state, or with another render's, the render starts afresh (with a
+    /// warning for the latter).
+    #[arg(long)]
+    pub resume: bool,
     /// Memory the render may use (e.g. 8G, 512M; default: what the machine
     /// has available). A render that needs more is refused before it
     /// starts.

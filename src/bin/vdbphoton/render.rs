@@ -37,6 +37,7 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
         aovs: a.aovs,
         denoise: a.denoise,
         denoise_quality: a.denoise_quality,
+        resume: a.resume,
     }
     .apply(&mut desc, &a.scene)?;
     let region = a

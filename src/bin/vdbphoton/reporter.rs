@@ -60,6 +60,13 @@ impl vdbphoton::render::Reporter for CliReporter {
             eprintln!("checkpoint: {} after {passes} passes", path.display());
         }
     }
+    fn resumed(&self, state: &std::path::Path, passes: u32, seconds: f64) {
+        self.end_bar();
+        eprintln!(
+            "resumed: '{}' after {passes} passes ({seconds:.1} s)",
+            state.display()
+        );
+    }
     fn saved(&self, path: &std::path::Path) {
         self.end_bar();
         println!("Saved: '{}'", path.display());
