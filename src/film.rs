@@ -342,63 +342,47 @@ impl Film {
     }
 
     /// Reads what [`Self::write_sums`] wrote of a film of this layout
-    /// (region, AOVs, albedo) into this film, replacing its sums.
-    pub fn read_sums(&mut self, bytes: &[u8]) -> Result<(), String> {
-        if bytes.len() as u64 != self.sums_bytes() {
-            return Err(format!(
-                "the film's sums are {} bytes, where {} x {} pixels{}{} take {}",
-                bytes.len(),
-                self.region.width(),
-                self.region.height(),
-                if self.aovs.is_some() {
-                    " with AOVs"
-                } else {
-                    ""
-                },
-                if self.albedo.is_some() {
-                    " and albedo"
-                } else {
-                    ""
-                },
-                self.sums_bytes()
-            ));
+    /// (region, AOVs, albedo) from `r` into this film, replacing its sums
+    /// (a chunk at a time: no second copy of the film in memory).
+    pub fn read_sums(&mut self, r: &mut impl std::io::Read) -> Result<(), String> {
+        fn get<T, const N: usize>(
+            r: &mut impl std::io::Read,
+            v: &mut [T],
+            from: impl Fn(&[u8]) -> T,
+        ) -> Result<(), String> {
+            let mut buf = vec![0u8; N * 4096];
+            for chunk in v.chunks_mut(4096) {
+                let b = &mut buf[..N * chunk.len()];
+                r.read_exact(b)
+                    .map_err(|e| format!("the film's sums end early: {e}"))?;
+                for (x, bytes) in chunk.iter_mut().zip(b.chunks_exact(N)) {
+                    *x = from(bytes);
+                }
+            }
+            Ok(())
         }
-        let mut at = 0;
-        let mut take = |n: usize| {
-            let s = &bytes[at..at + n];
-            at += n;
-            s
-        };
         let f64_at =
             |s: &[u8], i: usize| f64::from_le_bytes(s[8 * i..8 * i + 8].try_into().unwrap());
         let f32_at =
             |s: &[u8], i: usize| f32::from_le_bytes(s[4 * i..4 * i + 4].try_into().unwrap());
         let rgb_at =
             |s: &[u8], i: usize| Rgb::new(f32_at(s, i), f32_at(s, i + 1), f32_at(s, i + 2));
-        for x in &mut self.l {
-            let s = take(24);
-            *x = DVec3::new(f64_at(s, 0), f64_at(s, 1), f64_at(s, 2));
-        }
-        for x in &mut self.transmittance {
-            *x = f64_at(take(8), 0);
-        }
-        for x in &mut self.samples {
-            *x = u32::from_le_bytes(take(4).try_into().unwrap());
-        }
+        get::<_, 24>(r, &mut self.l, |s| {
+            DVec3::new(f64_at(s, 0), f64_at(s, 1), f64_at(s, 2))
+        })?;
+        get::<_, 8>(r, &mut self.transmittance, |s| f64_at(s, 0))?;
+        get::<_, 4>(r, &mut self.samples, |s| {
+            u32::from_le_bytes(s.try_into().unwrap())
+        })?;
         if let Some(a) = &mut self.aovs {
-            for x in a {
-                let s = take(36);
-                *x = AovSums {
-                    direct: rgb_at(s, 0),
-                    indirect: rgb_at(s, 3),
-                    emission: rgb_at(s, 6),
-                };
-            }
+            get::<_, 36>(r, a, |s| AovSums {
+                direct: rgb_at(s, 0),
+                indirect: rgb_at(s, 3),
+                emission: rgb_at(s, 6),
+            })?;
         }
         if let Some(a) = &mut self.albedo {
-            for x in a {
-                *x = rgb_at(take(12), 0);
-            }
+            get::<_, 12>(r, a, |s| rgb_at(s, 0))?;
         }
         Ok(())
     }

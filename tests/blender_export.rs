@@ -923,3 +923,153 @@ fn blender_export_warns_and_refuses() {
         eprintln!("{blend}: vdbphoton_export: error: {}", errors[0]);
     }
 }
+
+/// The EXR's channels by their full names, as raw f32 bits.
+fn channel_bits(path: &Path) -> std::collections::BTreeMap<String, Vec<u32>> {
+    let img = exr::prelude::read_all_flat_layers_from_file(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut out = std::collections::BTreeMap::new();
+    for layer in &img.layer_data {
+        for ch in &layer.channel_data.list {
+            out.insert(
+                ch.name.to_string(),
+                ch.sample_data.values_as_f32().map(f32::to_bits).collect(),
+            );
+        }
+    }
+    out
+}
+
+/// vdbphoton as Blender's render engine (`tools/blender/test_export/
+/// engine_render.py`, one case a process): F12 saves the image the command
+/// line renders from the exported scene, bit for bit, with the AOVs as
+/// render passes; the exporter writes a still as the current frame;
+/// Ctrl-F12 writes a file a frame; a binary that is not vdbphoton, or none,
+/// no camera, no volume or a missing VDB is an error in Blender's report
+/// and no crash; Esc ends the render
+/// within a second, no process or temporary folder left.
+#[test]
+fn blender_renders_with_the_vdbphoton_engine() {
+    let Some(py) = bpy_python() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let vdb = dir.join("cloud.vdb");
+    ok(
+        run(
+            Command::new(BIN)
+                .args(["generate", "cloud"])
+                .arg(&vdb)
+                .args(["--res", "32"]),
+            "generate",
+        ),
+        "generate",
+    );
+    let case = |name: &str| -> serde_json::Value {
+        let out_dir = dir.join(name);
+        let temp = out_dir.join("tmp");
+        std::fs::create_dir_all(&temp).unwrap();
+        let out = ok(
+            run(
+                Command::new(&py)
+                    .arg(repo().join("tools/blender/test_export/engine_render.py"))
+                    .arg(&vdb)
+                    .arg(&out_dir)
+                    .arg(name)
+                    .env("VDBPHOTON", BIN)
+                    .env("TMPDIR", &temp),
+                &format!("engine_render.py {name}"),
+            ),
+            name,
+        );
+        let text = String::from_utf8_lossy(&out.stdout);
+        let line = text
+            .lines()
+            .find_map(|l| l.strip_prefix("ENGINE "))
+            .unwrap_or_else(|| panic!("{name}: no ENGINE line:\n{text}"));
+        serde_json::from_str(line).unwrap()
+    };
+
+    // F12: the saved image is the command line's render, bit for bit.
+    let still = case("still");
+    assert_eq!(still["saved"], true, "{still}");
+    assert_eq!(still["frames_line"][0], "frames = \"1\"\n", "{still}");
+    let argv: Vec<String> = still["command"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    ok(
+        run(
+            Command::new(&argv[0]).args(&argv[1..]),
+            "the engine's command line",
+        ),
+        "the engine's command line",
+    );
+    let engine = channel_bits(&dir.join("still/still.exr"));
+    let cli = channel_bits(&dir.join("still/cli.exr"));
+    let pairs = [
+        ("R", "Combined.R"),
+        ("G", "Combined.G"),
+        ("B", "Combined.B"),
+        ("A", "Combined.A"),
+        ("direct.R", "Direct.R"),
+        ("indirect.G", "Indirect.G"),
+        ("emission.B", "Emission.B"),
+        ("transmittance.Y", "Transmittance.X"),
+    ];
+    for (c, pass) in pairs {
+        let key = format!("ViewLayer.{pass}");
+        let e = engine
+            .get(&key)
+            .unwrap_or_else(|| panic!("no pass {key} in {:?}", engine.keys()));
+        // Blender's rows run bottom up in memory; files top down in both.
+        assert_eq!(e, &cli[c], "{pass} differs from the command line's {c}");
+    }
+    assert!(cli["R"].iter().any(|&b| b != 0));
+
+    let anim = case("animation");
+    assert_eq!(
+        anim["files"],
+        serde_json::json!(["anim_0001.exr", "anim_0002.exr"]),
+        "{anim}"
+    );
+
+    let broken = case("broken");
+    assert_eq!(broken["survived"], true);
+    assert!(
+        broken["error"]
+            .as_str()
+            .is_some_and(|e| e.contains("/bin/true' is not a vdbphoton binary")),
+        "{broken}"
+    );
+    let missing = case("missing");
+    assert!(
+        missing["error"]
+            .as_str()
+            .is_some_and(|e| e.contains("is not an executable file")),
+        "{missing}"
+    );
+
+    // Bad scenes: a clear error in Blender's report each, no crash.
+    for (name, says) in [
+        ("nocamera", "no camera"),
+        ("novolume", "has no Volume object or smoke domain"),
+        ("missingvdb", "gone.vdb"),
+    ] {
+        let r = case(name);
+        assert_eq!(r["survived"], true, "{r}");
+        assert!(
+            r["error"].as_str().is_some_and(|e| e.contains(says)),
+            "{name}: {r}"
+        );
+    }
+
+    let cancel = case("cancel");
+    let after = cancel["seconds_after_break"].as_f64().expect("no break");
+    assert!(after < 1.5, "the render went on {after} s after Esc");
+    assert_eq!(cancel["alive"], serde_json::json!([]), "{cancel}");
+    assert_eq!(cancel["temp_left"], serde_json::json!([]), "{cancel}");
+}

@@ -728,6 +728,14 @@ fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
     // A denoised image: the path tracer (its noise is what the denoiser
     // removes; docs/performance.md, "Denoising").
     assert_eq!(choose_integrator(&thick, true).0, "path");
+    // Nothing scatters (a thick absorber; a material of zero coefficients): the
+    // path tracer at once, whatever the thickness.
+    let absorber = world(vec![cloud(raw(15.0, 0.0, 0.3))], sun(), Rgb::ZERO);
+    let (name, why) = choose_integrator(&absorber, false);
+    assert_eq!(name, "path");
+    assert!(why.contains("nothing scatters"), "{why}");
+    let empty = world(vec![cloud(raw(0.0, 0.0, 0.3))], sun(), Rgb::ZERO);
+    assert_eq!(choose_integrator(&empty, false).0, "path");
 }
 
 /// The pilot measures the media's scattering order, and the automatic

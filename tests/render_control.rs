@@ -234,3 +234,53 @@ fn a_render_that_will_not_fit_is_refused_before_it_starts() {
     assert!(err.contains("amount of memory"), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
 }
+
+/// Where photons cannot help (nothing scatters: a volume that only
+/// absorbs), `auto` takes the path tracer at once and says why in the
+/// header, and an explicit `--integrator photon` says in one warning that
+/// it gains nothing.
+#[test]
+fn photons_are_not_spent_where_nothing_scatters() {
+    let dir = common::tempdir();
+    let text = std::fs::read_to_string(format!("{SCENES}/cloud.toml"))
+        .unwrap()
+        .replace("file = \"cloud.vdb\"", &format!("file = \"{SCENES}/cloud.vdb\""))
+        .replace(
+            "density = 25.0\ncolor = [0.95, 0.95, 0.95]\nabsorption_color = [0.0, 0.0, 0.0]\nanisotropy = 0.5",
+            "sigma_a = 30.0",
+        );
+    assert!(text.contains("sigma_a = 30.0"), "{text}");
+    let scene = dir.path().join("absorber.toml");
+    std::fs::write(&scene, text).unwrap();
+    let exr = dir.path().join("a.exr");
+    let base = [
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--no-preview",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--spp",
+        "2",
+        "-q",
+    ];
+    let mut auto = base.to_vec();
+    auto.extend(["--integrator", "auto"]);
+    let (code, _, err) = render(&auto);
+    assert_eq!(code, 0, "{err}");
+    let h = header(&exr);
+    assert!(h.contains("nothing scatters light"), "{h}");
+    assert!(!err.contains("warning"), "{err}");
+    let mut photon = base.to_vec();
+    photon.extend(["--integrator", "photon"]);
+    let (code, _, err) = render(&photon);
+    assert_eq!(code, 0, "{err}");
+    let warnings: Vec<&str> = err.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(
+        warnings[0].contains("the photon integrator gains nothing here"),
+        "{err}"
+    );
+}

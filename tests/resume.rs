@@ -321,7 +321,7 @@ fn a_state_of_another_render_is_refused_with_the_reason() {
         (&["--seed", "7"], "it is of seed 0, not 7"),
         (&["--width", "80"], "it is of a 96x72 image, not 80x72"),
         (&["--tile", "0/2"], "it is of the pixels"),
-        (&["--exposure", "1"], "it is of another scene"),
+        (&["--max-bounces", "3"], "it is of another scene"),
     ];
     for (change, why) in cases {
         let mut b = a.clone();
@@ -563,4 +563,30 @@ fn an_output_folder_that_cannot_be_written_is_refused_before_the_render() {
     assert_eq!(o.stderr.lines().count(), 1, "{}", o.stderr);
     assert!(o.stderr.contains("/sys"), "{}", o.stderr);
     assert!(t.elapsed() < Duration::from_secs(10));
+}
+
+#[test]
+fn resuming_a_finished_render_leaves_it_alone_and_another_render_replaces_it() {
+    // A farm task run again after it finished (a requeue of a whole
+    // array): its EXR, without a state beside it, is this render's.
+    let dir = common::tempdir();
+    let exr = dir.path().join("done.exr");
+    let mut a = args(&exr, "path", 8, &["--checkpoint", "0.05s"]);
+    ok(&a);
+    let finished = std::fs::read(&exr).unwrap();
+    a.push("--resume".into());
+    let o = ok(&a);
+    assert!(
+        o.stderr
+            .contains("is this render, finished (8 passes); nothing to resume"),
+        "{}",
+        o.stderr
+    );
+    assert_eq!(std::fs::read(&exr).unwrap(), finished);
+    assert_eq!(common::dir_entries(dir.path()), vec!["done.exr"]);
+    // Another seed is another render: it renders afresh.
+    set(&mut a, "--seed", "5");
+    let o = ok(&a);
+    assert!(!o.stderr.contains("nothing to resume"), "{}", o.stderr);
+    assert_ne!(std::fs::read(&exr).unwrap(), finished);
 }

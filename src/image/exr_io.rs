@@ -227,6 +227,24 @@ fn sample_f32(samples: &FlatSamples, i: usize) -> f32 {
 
 type Decoded = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
 
+/// The string attributes of an EXR's header, without reading its pixels
+/// (`None` when it cannot be read as an EXR).
+pub fn read_exr_attributes(path: impl AsRef<Path>) -> Option<Vec<(String, String)>> {
+    let meta = exr::meta::MetaData::read_from_file(path.as_ref(), false).ok()?;
+    let h = meta.headers.first()?;
+    Some(
+        h.shared_attributes
+            .other
+            .iter()
+            .chain(h.own_attributes.other.iter())
+            .filter_map(|(k, v)| match v {
+                AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+                _ => None,
+            })
+            .collect(),
+    )
+}
+
 /// Decodes any OpenEXR file (largest resolution level, all channels and
 /// attributes), refusing what is not one with one line naming it.
 fn decode(path: &Path) -> Result<Decoded, ImageError> {

@@ -26,7 +26,7 @@ use glam::Vec4;
 
 use crate::Rgb;
 
-pub use exr_io::{read_exr, read_exr_rgb, write_exr};
+pub use exr_io::{read_exr, read_exr_attributes, read_exr_rgb, write_exr};
 pub use metrics::{compare, diff_rgb8, write_diff_png, Metrics};
 pub use png_io::{preview_rgb8, srgb_encode, srgb_to_u8, write_png_preview};
 pub use sidebyside::write_side_by_side;

@@ -461,6 +461,16 @@ impl Volume {
     pub fn is_emissive(&self) -> bool {
         self.material.is_emissive()
     }
+
+    /// Whether light can scatter anywhere in it: some density, and a
+    /// material that scatters per unit of it (or a colour grid, which may
+    /// give it a scattering colour). An absorbing or only glowing volume
+    /// does not: nothing a photon map could store.
+    pub fn scatters(&self) -> bool {
+        let dense = self.density.value_range().is_some_and(|r| r[1] > 0.0);
+        let sigma_s = self.material.coefficients_per_density().0.max_element() > 0.0;
+        dense && (sigma_s || self.color.is_some())
+    }
 }
 
 /// Every volume of a scene.

@@ -179,7 +179,9 @@ pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
 }
 
 /// The integrator `auto` stands for, and why, for a loaded world: the
-/// photon integrator, unless every volume is optically thin (where most
+/// path tracer when no volume scatters light (photons would only be
+/// traced to be absorbed); else the photon integrator, unless every
+/// volume is optically thin (where most
 /// light scatters once, which the marcher and the path tracer both compute
 /// exactly, and a photon map only adds blur) or nothing scatters, or the
 /// image will be denoised: the path tracer's error is pixel noise, which
@@ -188,6 +190,12 @@ pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
 /// reference cloud at 30 s, denoised: path 4.1e-4, photon 1.25e-3;
 /// docs/performance.md, "Denoising").
 pub fn choose_integrator(world: &World, denoise: bool) -> (&'static str, &'static str) {
+    if !world.media.volumes().iter().any(|v| v.scatters()) {
+        return (
+            integrator::path::REGISTRATION.name,
+            "nothing scatters light (absorption or emission only, or no density): the path tracer; photons would carry nothing",
+        );
+    }
     if denoise {
         return (
             integrator::path::REGISTRATION.name,
@@ -312,7 +320,8 @@ fn attributes(
 }
 
 /// Writes the film's image to the EXR and the preview (each atomically),
-/// denoised when `denoiser` is given. Should denoising fail, the raw image
+/// denoised when `denoiser` is given; `exr_written` runs once the EXR is
+/// in place. Should denoising fail, the raw image
 /// is written all the same and the error returned after: a finished
 /// render is never lost to it.
 fn write_outputs(
@@ -322,6 +331,7 @@ fn write_outputs(
     view: crate::image::View,
     denoiser: Option<&Denoiser>,
     checkpoint: bool,
+    exr_written: impl FnOnce(),
 ) -> Result<Vec<PathBuf>> {
     let r = &desc.render;
     let mut image = film.to_image()?;
@@ -341,6 +351,7 @@ fn write_outputs(
         }
     }
     crate::image::write_exr(&r.output, &image, &attrs)?;
+    exr_written();
     let mut out = vec![r.output.clone()];
     if let Some(p) = &r.preview {
         crate::image::write_png_preview(p, &image, r.exposure, view)?;
@@ -447,6 +458,38 @@ fn resume_from(
     state.at
 }
 
+/// The summary of the finished render of `desc` at its output, when the
+/// EXR there has no resume state and its header says it is this render:
+/// the same scene, seed, tile and (for a sample count) samples.
+fn finished_already(desc: &SceneDesc, opts: &RenderOptions) -> Option<Summary> {
+    let r = &desc.render;
+    let attrs = crate::image::read_exr_attributes(&r.output)?;
+    let get = |k: &str| attrs.iter().find(|(x, _)| x == k).map(|(_, v)| v.as_str());
+    let tile = opts.tile.map(|(i, n)| format!("{i}/{n}"));
+    let spp: u32 = get("vdbphoton/spp")?.parse().ok()?;
+    let same = get("vdbphoton/scene_hash") == Some(scene_hash(desc).as_str())
+        && get("vdbphoton/seed") == Some(r.seed.to_string().as_str())
+        && get("vdbphoton/tile") == tile.as_deref()
+        && opts.region.is_none()
+        && (opts.time_limit.is_some() || spp >= r.spp);
+    if !same {
+        return None;
+    }
+    let integrator = integrator::find(get("vdbphoton/integrator")?)?.name;
+    Some(Summary {
+        integrator,
+        passes: get("vdbphoton/passes")?.parse().ok()?,
+        spp,
+        width: r.width,
+        height: r.height,
+        threads: 0,
+        load_seconds: 0.0,
+        render_seconds: get("vdbphoton/render_seconds")?.parse().ok()?,
+        write_seconds: 0.0,
+        outputs: vec![r.output.clone()],
+    })
+}
+
 /// The pixels a render covers: the whole image, `--region` or `--tile`.
 pub fn region_of(desc: &SceneDesc, opts: &RenderOptions) -> Result<Region> {
     let (w, h) = (desc.render.width, desc.render.height);
@@ -531,8 +574,22 @@ pub fn render_scene(
     }
     // One render at a time writes an output and its state; the lock also
     // clears what a killed render left half-written.
-    let _lock = resume::lock(&r.output)?;
+    let stateful = r.resume || opts.checkpoint.is_some();
+    let _lock = resume::lock(&r.output, stateful)?;
     let state_path = resume::state_path(&r.output);
+    // A render asked to resume whose output is already this render,
+    // finished (a farm task run again after it ended): nothing to do, and
+    // a checkpoint of a fresh start must not replace the finished image.
+    if r.resume && !state_path.exists() {
+        if let Some(done) = finished_already(desc, opts) {
+            reporter.warning(&format!(
+                "'{}' is this render, finished ({} passes); nothing to resume",
+                r.output.display(),
+                done.passes
+            ));
+            return Ok(done);
+        }
+    }
     // A stop request (a farm's SIGTERM) lets a checkpointing render finish
     // its pass and write a last checkpoint.
     let _finish = opts.checkpoint.map(|_| crate::interrupt::finish_passes());
@@ -549,6 +606,13 @@ pub fn render_scene(
             reporter.warning(w);
         }
         let mut integrator = make_integrator(desc, &world)?;
+        if integrator.name() == integrator::photon::REGISTRATION.name
+            && !world.media.volumes().iter().any(|v| v.scatters())
+        {
+            reporter.warning(
+                "the photon integrator gains nothing here: no volume scatters light (absorption or emission only, or no density), so every photon would be traced only to be absorbed; integrator = \"path\" (or \"auto\") renders the same image without that work",
+            );
+        }
         // Why `auto` chose what it chose, in the header.
         let mut extra = extra.clone();
         if r.integrator == AUTO_INTEGRATOR {
@@ -610,7 +674,15 @@ pub fn render_scene(
                     at.seconds,
                     &extra,
                 );
-                write_outputs(desc, film, &attrs, opts.view, denoiser.as_ref(), true)?;
+                write_outputs(
+                    desc,
+                    film,
+                    &attrs,
+                    opts.view,
+                    denoiser.as_ref(),
+                    true,
+                    || {},
+                )?;
                 reporter.checkpoint(&r.output, at.passes);
                 saved = at.passes;
                 last_checkpoint = Instant::now();
@@ -642,19 +714,24 @@ pub fn render_scene(
             render_seconds,
             &extra,
         );
-        let written = write_outputs(desc, &film, &attrs, opts.view, denoiser.as_ref(), false);
-        // The render is finished once its EXR is: its state goes (even when
-        // only the denoising failed: the raw image is written).
-        if r.output.is_file() {
-            match std::fs::remove_file(&state_path) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => reporter.warning(&format!(
-                    "cannot remove the finished render's state '{}': {e}",
-                    state_path.display()
-                )),
-                _ => {}
-            }
-        }
-        let outputs = written?;
+        // The render is finished once its EXR is on disk: its state goes
+        // then (also when only the denoising failed: the raw image is
+        // written), never when the EXR could not be written.
+        let outputs = write_outputs(
+            desc,
+            &film,
+            &attrs,
+            opts.view,
+            denoiser.as_ref(),
+            false,
+            || {
+                if state_path.exists() {
+                    if let Err(e) = resume::finish(&r.output, &state_path) {
+                        reporter.warning(&e);
+                    }
+                }
+            },
+        )?;
         for p in &outputs {
             reporter.saved(p);
         }

@@ -19,6 +19,7 @@ pub struct Overrides {
     pub no_preview: bool,
     pub spp: Option<u32>,
     pub seed: Option<u64>,
+    pub max_bounces: Option<u32>,
     pub width: Option<u32>,
     pub height: Option<u32>,
     pub exposure: Option<f32>,
@@ -56,6 +57,9 @@ impl Overrides {
         }
         if let Some(v) = self.seed {
             r.seed = v;
+        }
+        if let Some(v) = self.max_bounces {
+            r.max_bounces = v;
         }
         if let Some(v) = self.width {
             r.width = v;

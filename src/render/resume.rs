@@ -63,6 +63,32 @@ pub fn is_finished(output: &Path) -> bool {
     output.is_file() && !state_path(output).exists()
 }
 
+/// Ends the state of a finished render: its EXR `output` synced to disk
+/// (with its folder, so that the rename is too), then the state at
+/// `state` removed, so that a power cut cannot leave an old or empty EXR
+/// without the state that says it is unfinished.
+pub fn finish(output: &Path, state: &Path) -> std::result::Result<(), String> {
+    let sync = |p: &Path| File::open(p).and_then(|f| f.sync_all());
+    let dir = match output.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    sync(output).and_then(|()| sync(dir)).map_err(|e| {
+        format!(
+            "cannot sync '{}' to disk ({e}); its resume state '{}' is kept",
+            output.display(),
+            state.display()
+        )
+    })?;
+    match std::fs::remove_file(state) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(format!(
+            "cannot remove the finished render's state '{}': {e}",
+            state.display()
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// A hash of a byte stream, fed in fixed chunks.
 struct ChunkHash {
     hasher: std::collections::hash_map::DefaultHasher,
@@ -150,7 +176,11 @@ pub fn scene_fingerprint(desc: &SceneDesc) -> String {
             }
         }
     }
-    format!("{} {:016x}", super::scene_hash(desc), h.finish())
+    // What only changes how the sums are shown is not part of it.
+    let mut d = desc.clone();
+    d.render.exposure = 0.0;
+    d.render.denoise_quality = crate::scene::DenoiseQuality::High;
+    format!("{} {:016x}", super::scene_hash(&d), h.finish())
 }
 
 /// What a state must match to be resumed: which render it is of.
@@ -212,7 +242,9 @@ impl Identity {
                 "binary" => format!(
                     "it was written by another build of vdbphoton ({theirs}; this is {mine})"
                 ),
-                "scene" => "it is of another scene (the scene file or its volumes changed)".into(),
+                "scene" => {
+                    "it is of another scene (its description or its input files changed)".into()
+                }
                 "size" => format!("it is of a {theirs} image, not {mine}"),
                 "region" => format!("it is of the pixels {theirs}, not {mine}"),
                 "aovs" | "albedo" => format!(
@@ -325,41 +357,68 @@ pub fn read(
     id: &Identity,
     empty: &Film,
 ) -> std::result::Result<Option<Resumed>, String> {
-    let bytes = match std::fs::read(path) {
-        Ok(b) => b,
+    use std::io::{BufRead, Seek};
+    let mut file = match File::open(path) {
+        Ok(f) => f,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(format!("cannot read it: {e}")),
     };
+    let io = |e: std::io::Error| format!("cannot read it: {e}");
     let damaged = |what: &str| format!("it is damaged ({what})");
-    if !bytes.starts_with(MAGIC.as_bytes()) {
-        return Err(if bytes.starts_with(b"vdbphoton render state") {
+    let len = file.metadata().map_err(io)?.len();
+    let magic = format!("{MAGIC}\n");
+    let mut head = vec![0u8; magic.len().min(len as usize)];
+    file.read_exact(&mut head).map_err(io)?;
+    if head != magic.as_bytes() {
+        return Err(if head.starts_with(b"vdbphoton render state") {
             "it is of another version of the state format".into()
         } else {
             "it is not a vdbphoton render state".into()
         });
     }
-    if bytes.len() < MAGIC.len() + 8 {
+    if len < magic.len() as u64 + 8 {
         return Err(damaged("truncated"));
     }
-    let (body, sum) = bytes.split_at(bytes.len() - 8);
+    // The checksum over everything before it, read a chunk at a time.
+    file.rewind().map_err(io)?;
     let mut h = ChunkHash::new();
-    h.update(body);
+    let mut buf = vec![0u8; HASH_CHUNK];
+    let mut left = len - 8;
+    while left > 0 {
+        let n = left.min(HASH_CHUNK as u64) as usize;
+        file.read_exact(&mut buf[..n]).map_err(io)?;
+        h.update(&buf[..n]);
+        left -= n as u64;
+    }
+    let mut sum = [0u8; 8];
+    file.read_exact(&mut sum).map_err(io)?;
     if h.finish().to_le_bytes() != sum {
         return Err(damaged(
             "its checksum does not match: truncated or overwritten",
         ));
     }
-    let end = body
-        .windows(2)
-        .position(|w| w == b"\n\n")
-        .ok_or_else(|| damaged("no end of header"))?;
-    let head = std::str::from_utf8(&body[..end]).map_err(|_| damaged("header not text"))?;
-    let pairs: Vec<(String, String)> = head
-        .lines()
-        .skip(1)
-        .filter_map(|l| l.split_once('='))
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect();
+    // The header's lines, up to the blank line, then the film.
+    file.rewind().map_err(io)?;
+    let mut r = std::io::BufReader::with_capacity(1 << 20, file);
+    let mut pairs: Vec<(String, String)> = Vec::new();
+    let mut line = String::new();
+    r.read_line(&mut line).map_err(io)?;
+    loop {
+        line.clear();
+        if r.read_line(&mut line)
+            .map_err(|_| damaged("header not text"))?
+            == 0
+        {
+            return Err(damaged("no end of header"));
+        }
+        let l = line.trim_end_matches('\n');
+        if l.is_empty() {
+            break;
+        }
+        if let Some((k, v)) = l.split_once('=') {
+            pairs.push((k.to_string(), v.to_string()));
+        }
+    }
     if let Some(why) = id.mismatch(&pairs) {
         return Err(why);
     }
@@ -377,6 +436,9 @@ pub fn read(
             .filter(|x| x.is_finite() && *x >= 0.0)
             .ok_or_else(|| damaged(&format!("bad {k}")))
     };
+    if get("film_bytes")? != empty.sums_bytes().to_string() {
+        return Err(damaged("its film is not of this render's size"));
+    }
     let at = Position {
         passes: get("passes")?.parse().map_err(|_| damaged("bad passes"))?,
         seconds: num("seconds")?,
@@ -389,9 +451,11 @@ pub fn read(
                 .map(|k| (k.to_string(), v.clone()))
         })
         .collect();
-    let sums = &body[end + 2..];
     let mut film = empty.clone();
-    film.read_sums(sums).map_err(|e| damaged(&e))?;
+    film.read_sums(&mut r).map_err(|e| damaged(&e))?;
+    if r.stream_position().map_err(io)? != len - 8 {
+        return Err(damaged("more bytes than its film"));
+    }
     Ok(Some(Resumed {
         at,
         integrator,
@@ -415,8 +479,9 @@ impl Drop for Lock {
 }
 
 /// Takes the lock of the render writing `output`, or says which process
-/// holds it.
-pub fn lock(output: &Path) -> Result<Lock> {
+/// holds it; with `clean`, removes what a killed render of `output` left
+/// half-written (its EXR's and state's temporaries).
+pub fn lock(output: &Path, clean: bool) -> Result<Lock> {
     let path = lock_path(output);
     let err = |e: std::io::Error| {
         Error::Argument(format!("cannot make the lock '{}': {e}", path.display()))
@@ -464,14 +529,16 @@ pub fn lock(output: &Path) -> Result<Lock> {
         let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
         let _ = file.set_len(0);
         let _ = write!(file, "process {} on {}", std::process::id(), host.trim());
-        remove_stale_temporaries(output);
+        if clean {
+            remove_stale_temporaries(output);
+        }
         return Ok(Lock { path, _file: file });
     }
 }
 
 /// Removes what a killed render of `output` left half-written: the
-/// temporaries of its EXR, preview and state (`crate::atomic`), which no
-/// live render can be writing while we hold the lock.
+/// temporaries of its EXR and state (`crate::atomic`), which no live
+/// render can be writing while we hold the lock.
 fn remove_stale_temporaries(output: &Path) {
     let dir = match output.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
@@ -480,19 +547,15 @@ fn remove_stale_temporaries(output: &Path) {
     let Some(name) = output.file_name().and_then(|n| n.to_str()) else {
         return;
     };
-    let stem = output.file_stem().and_then(|n| n.to_str()).unwrap_or(name);
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
+    let ours = [format!(".{name}.tmp-"), format!(".{name}.vdbstate.tmp-")];
     for e in entries.flatten() {
         let f = e.file_name();
-        let Some(f) = f.to_str() else { continue };
-        let ours = [
-            format!(".{name}.tmp-"),
-            format!(".{name}.vdbstate.tmp-"),
-            format!(".{stem}.png.tmp-"),
-        ];
-        if ours.iter().any(|p| f.starts_with(p.as_str())) {
+        if f.to_str()
+            .is_some_and(|f| ours.iter().any(|p| f.starts_with(p.as_str())))
+        {
             let _ = std::fs::remove_file(e.path());
         }
     }

@@ -72,14 +72,15 @@ file, so the exported transform is
 """
 
 bl_info = {
-    "name": "vdbphoton scene export",
+    "name": "vdbphoton",
     "author": "vdbphoton",
-    "version": (1, 0, 0),
+    "version": (1, 1, 0),
     "blender": (3, 4, 0),
-    "location": "File > Export > vdbphoton scene (.toml)",
-    "description": "Export Volume objects, smoke domains, camera, lights and world "
-                   "as a vdbphoton scene file",
-    "category": "Import-Export",
+    "location": "Render Properties > Render Engine > vdbphoton; "
+                "File > Export > vdbphoton scene (.toml)",
+    "description": "Render OpenVDB volumes and smoke domains with vdbphoton (a render "
+                   "engine), or export them as a vdbphoton scene file",
+    "category": "Render",
 }
 
 import math
@@ -1133,6 +1134,14 @@ class Exporter:
         if not doc['volume']:
             raise ExportError(f"nothing to export: scene '{sc.name}' has no Volume object or "
                               "smoke domain that could be exported")
+        if not self.frames_arg and not any('#' in v['file'] or '{frame' in v['file']
+                                           for v in doc['volume']):
+            # A still (every volume one file): every frame of the range is
+            # the same image, so the scene is the current frame, as F12.
+            doc['render']['frames'] = str(sc.frame_current)
+            self.note(f"scene '{sc.name}': no volume changes from frame to frame; exported as "
+                      f"frame {sc.frame_current} alone, not the range "
+                      f"{frame_range_text(sc.frame_start, sc.frame_end, sc.frame_step)}")
         return doc
 
     def check_other(self, o):
@@ -1466,12 +1475,396 @@ def menu_func_export(self, context):
     self.layout.operator(EXPORT_SCENE_OT_vdbphoton.bl_idname, text='vdbphoton scene (.toml)')
 
 
+# ------------------------------------------------------------ render engine
+#
+# vdbphoton as a render engine of Blender: F12 exports the current frame
+# with the exporter above into a temporary folder, runs the `vdbphoton`
+# binary on it with `--progress json`, follows its progress, draws each
+# checkpoint into the render result, stops it on Esc, and loads the finished
+# EXR (beauty as Combined, the AOVs as render passes).
+
+# The binary's version this add-on speaks to (`vdbphoton --version`): the
+# same major and minor.
+BINARY_VERSION = (0, 1)
+
+# Render passes from the EXR's layers: (pass name, channels, Blender's
+# channel ids, EXR layer).
+AOV_PASSES = [('Direct', 3, 'RGB', 'direct'), ('Indirect', 3, 'RGB', 'indirect'),
+              ('Emission', 3, 'RGB', 'emission'), ('Transmittance', 1, 'X', 'transmittance')]
+DENOISE_PASSES = [('Noisy Image', 4, 'RGBA', 'noisy'), ('Denoising Albedo', 3, 'RGB', 'albedo')]
+
+
+def read_exr_channels(path):
+    """The channels of a scan-line EXR as vdbphoton writes it (single part,
+    ZIP, ZIPS or no compression), float32 arrays of shape (height, width),
+    top row first, and the display size."""
+    import numpy as np
+    import zlib
+    with open(path, 'rb') as f:
+        data = f.read()
+    if data[:4] != b'\x76\x2f\x31\x01':
+        raise ExportError(f'{path}: not an OpenEXR file')
+    pos, attrs = 8, {}
+    while data[pos] != 0:
+        end = data.index(b'\0', pos)
+        name = data[pos:end].decode()
+        end2 = data.index(b'\0', end + 1)
+        size = struct.unpack_from('<i', data, end2 + 1)[0]
+        attrs[name] = data[end2 + 5:end2 + 5 + size]
+        pos = end2 + 5 + size
+    pos += 1
+    chans, raw, p = [], attrs['channels'], 0
+    while raw[p] != 0:
+        end = raw.index(b'\0', p)
+        chans.append((raw[p:end].decode(), struct.unpack_from('<i', raw, end + 1)[0]))
+        p = end + 17
+    x0, y0, x1, y1 = struct.unpack('<iiii', attrs['dataWindow'])
+    dx0, dy0, dx1, dy1 = struct.unpack('<iiii', attrs['displayWindow'])
+    comp = attrs['compression'][0]
+    lines = {0: 1, 2: 1, 3: 16}.get(comp)
+    if lines is None:
+        raise ExportError(f'{path}: EXR compression {comp} is not one vdbphoton writes')
+    w, h = x1 - x0 + 1, y1 - y0 + 1
+    size = {0: 4, 1: 2, 2: 4}
+    dtype = {0: '<u4', 1: '<f2', 2: '<f4'}
+    out = {n: np.zeros((h, w), dtype=np.float32) for n, _ in chans}
+    nblocks = (h + lines - 1) // lines
+    for off in struct.unpack_from(f'<{nblocks}Q', data, pos):
+        y, n = struct.unpack_from('<ii', data, off)
+        block = data[off + 8:off + 8 + n]
+        nl = min(lines, y1 - y + 1)
+        if comp != 0 and n < nl * w * sum(size[t] for _, t in chans):
+            b = np.frombuffer(zlib.decompress(block), dtype=np.uint8).astype(np.int32)
+            b = (np.cumsum(np.concatenate(([b[0]], b[1:] - 128))) & 0xFF).astype(np.uint8)
+            half = (len(b) + 1) // 2
+            t = np.empty(len(b), dtype=np.uint8)
+            t[0::2] = b[:half]
+            t[1::2] = b[half:]
+            block = t.tobytes()
+        q = 0
+        for line in range(nl):
+            for name, t in chans:
+                nb = w * size[t]
+                out[name][y - y0 + line] = np.frombuffer(block[q:q + nb], dtype=dtype[t])
+                q += nb
+    return out, (x0 - dx0, y0 - dy0), (dx1 - dx0 + 1, dy1 - dy0 + 1)
+
+
+def find_binary():
+    """The vdbphoton binary: the add-on's preference, else $VDBPHOTON, else
+    `vdbphoton` on PATH."""
+    import shutil
+    exe = ''
+    addon = bpy.context.preferences.addons.get(__name__)
+    if addon is not None and getattr(addon.preferences, 'binary', ''):
+        exe = bpy.path.abspath(addon.preferences.binary)
+    exe = exe or os.environ.get('VDBPHOTON', '') or (shutil.which('vdbphoton') or '')
+    if not exe:
+        raise ExportError("the vdbphoton binary was not found: set its path in the add-on's "
+                          "preferences (Edit > Preferences > Add-ons > vdbphoton) or put it on PATH")
+    if not (os.path.isfile(exe) and os.access(exe, os.X_OK)):
+        raise ExportError(f"the vdbphoton binary '{exe}' is not an executable file")
+    return exe
+
+
+def check_binary(exe):
+    """Checks that `exe` is a vdbphoton of the version this add-on speaks to
+    (`vdbphoton --version`); returns its version text."""
+    import subprocess
+    try:
+        out = subprocess.run([exe, '--version'], capture_output=True, text=True, timeout=20)
+    except (OSError, subprocess.SubprocessError) as e:
+        raise ExportError(f"cannot run the vdbphoton binary '{exe}': {e}") from None
+    m = re.match(r'vdbphoton (\d+)\.(\d+)\.(\d+)', out.stdout.strip())
+    if out.returncode != 0 or not m:
+        said = ((out.stdout or out.stderr).strip().splitlines() or [''])[0][:80]
+        raise ExportError(f"'{exe}' is not a vdbphoton binary (its --version said {said!r})")
+    if (int(m.group(1)), int(m.group(2))) != BINARY_VERSION:
+        raise ExportError(f"'{exe}' is vdbphoton {m.group(0)[10:]}; this add-on "
+                          f"({'.'.join(map(str, bl_info['version']))}) needs vdbphoton "
+                          f"{BINARY_VERSION[0]}.{BINARY_VERSION[1]}.x")
+    return m.group(0)
+
+
+def engine_command(exe, scene_file, exr, frame, s):
+    """The command line the engine runs for settings `s` (the scene's
+    VdbphotonSettings)."""
+    args = [exe, 'render', scene_file, '--frame', str(frame), '-o', exr, '--no-preview',
+            '--progress', 'json', '--aovs', '--integrator', s.integrator,
+            '--seed', str(s.seed), '--checkpoint', f'{s.checkpoint:g}s']
+    if s.budget == 'TIME':
+        args += ['--time', f'{s.time_limit:g}s']
+    else:
+        args += ['--spp', str(s.samples)]
+    if s.max_bounces > 0:
+        args += ['--max-bounces', str(s.max_bounces)]
+    if s.threads > 0:
+        args += ['--threads', str(s.threads)]
+    if s.denoise:
+        args.append('--denoise')
+    return args
+
+
+class VDBPHOTON_AddonPreferences(bpy.types.AddonPreferences):
+    bl_idname = __name__
+    binary: bpy.props.StringProperty(
+        name='vdbphoton binary', subtype='FILE_PATH', default='',
+        description='The vdbphoton program (empty: $VDBPHOTON, else vdbphoton on PATH)')
+
+    def draw(self, context):
+        self.layout.prop(self, 'binary')
+
+
+class VdbphotonSettings(bpy.types.PropertyGroup):
+    integrator: bpy.props.EnumProperty(
+        name='Integrator', default='auto',
+        items=[('auto', 'Auto', 'Photon mapping for thick volumes, the path tracer for thin '
+                'ones and for denoised images'),
+               ('photon', 'Photon Mapping', 'Volumetric photon mapping (progressive)'),
+               ('path', 'Path Tracing', 'The reference volumetric path tracer')])
+    budget: bpy.props.EnumProperty(
+        name='Budget', default='SAMPLES',
+        items=[('SAMPLES', 'Samples', 'Render a number of samples per pixel'),
+               ('TIME', 'Time', 'Render for a wall-clock time')])
+    samples: bpy.props.IntProperty(name='Samples', default=64, min=1, max=1 << 24)
+    time_limit: bpy.props.FloatProperty(name='Time Limit', default=30.0, min=0.1,
+                                        max=1e7, unit='TIME_ABSOLUTE')
+    max_bounces: bpy.props.IntProperty(
+        name='Max Bounces', default=0, min=0, max=100000,
+        description="Scattering events at most along a path (0: from Cycles' Volume and "
+                    "Total bounces, as the exporter writes them)")
+    seed: bpy.props.IntProperty(name='Seed', default=0, min=0)
+    threads: bpy.props.IntProperty(name='Threads', default=0, min=0, max=1024,
+                                   description='Worker threads (0: all cores)')
+    denoise: bpy.props.BoolProperty(name='Denoise', default=False,
+                                    description='Denoise with Open Image Denoise')
+    checkpoint: bpy.props.FloatProperty(
+        name='Update Interval', default=2.0, min=0.1, max=3600.0, unit='TIME_ABSOLUTE',
+        description='How often the image in Blender is updated while rendering')
+
+
+class VdbphotonRenderEngine(bpy.types.RenderEngine):
+    bl_idname = 'VDBPHOTON'
+    bl_label = 'vdbphoton'
+    bl_use_preview = False
+    bl_use_postprocess = True
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, 'Combined', 4, 'RGBA', 'COLOR')
+        for name, n, chan, _ in AOV_PASSES:
+            self.register_pass(scene, renderlayer, name, n, chan,
+                               'VALUE' if n == 1 else 'COLOR')
+        if scene is not None and scene.vdbphoton.denoise:
+            for name, n, chan, _ in DENOISE_PASSES:
+                self.register_pass(scene, renderlayer, name, n, chan, 'COLOR')
+
+    def render(self, depsgraph):
+        import tempfile
+        import shutil
+        scene = depsgraph.scene
+        try:
+            exe = find_binary()
+            check_binary(exe)
+        except ExportError as e:
+            self.report({'ERROR'}, f'vdbphoton: {e}')
+            return
+        tmp = tempfile.mkdtemp(prefix='vdbphoton-render-')
+        try:
+            self._render(depsgraph, scene, exe, tmp)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+    def _render(self, depsgraph, scene, exe, tmp):
+        import queue
+        import signal
+        import subprocess
+        import threading
+        import time
+        s = scene.vdbphoton
+        r = scene.render
+        w = r.resolution_x * r.resolution_percentage // 100
+        h = r.resolution_y * r.resolution_percentage // 100
+        frame = scene.frame_current
+        scene_file = os.path.join(tmp, 'scene.toml')
+        exr = os.path.join(tmp, 'frame.exr')
+        msgs = []
+        try:
+            export_scene(scene_file, scene, depsgraph.view_layer,
+                         warn=lambda kind, m: msgs.append((kind, m)),
+                         frames=str(frame), output=exr, no_preview=True)
+        except ExportError as e:
+            self.report({'ERROR'}, f'vdbphoton: {e}')
+            return
+        for kind, m in msgs:
+            if kind == 'warning':
+                self.report({'WARNING'}, f'vdbphoton: {m}')
+        # The passes update_render_passes registered, in the result.
+        passes = AOV_PASSES + (DENOISE_PASSES if s.denoise else [])
+        result = self.begin_result(0, 0, w, h)
+        self.update_stats('', f'vdbphoton: frame {frame}, starting')
+        try:
+            proc = subprocess.Popen(engine_command(exe, scene_file, exr, frame, s),
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                    text=True, bufsize=1)
+        except OSError as e:
+            self.report({'ERROR'}, f"vdbphoton: cannot run '{exe}': {e}")
+            self.end_result(result)
+            return
+        lines = queue.Queue()
+
+        def pump():
+            for line in proc.stderr:
+                lines.put(line)
+            lines.put(None)
+
+        threading.Thread(target=pump, daemon=True).start()
+        errors = []
+        ended = False
+        while not ended:
+            try:
+                line = lines.get(timeout=0.05)
+            except queue.Empty:
+                line = ''
+            if line is None:
+                ended = True
+            elif line:
+                self._event(line, result, passes, errors)
+            if not ended and self.stop_requested():
+                # Esc: stop the render (SIGTERM; a render that has not
+                # ended within a second is killed). The last checkpoint
+                # drawn stays in the image.
+                proc.send_signal(signal.SIGTERM)
+                try:
+                    proc.wait(timeout=1.0)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                proc.wait()
+                self.end_result(result)
+                self.update_stats('', 'vdbphoton: cancelled')
+                return
+        rc = proc.wait()
+        if rc != 0:
+            # The first error names the file or setting; later ones sum up.
+            self.report({'ERROR'}, errors[0] if errors else
+                        f'vdbphoton: the render failed (exit code {rc})')
+            self.end_result(result)
+            return
+        try:
+            self._load(exr, result, passes)
+        except (OSError, ExportError, KeyError, ValueError) as e:
+            self.report({'ERROR'}, f'vdbphoton: cannot read the rendered image: {e}')
+        self.end_result(result)
+        self.update_progress(1.0)
+
+    def stop_requested(self):
+        """Whether Blender asked to stop (Esc): `test_break`. (A method of
+        ours, so that a test can stand in for the user.)"""
+        return self.test_break()
+
+    def _event(self, line, result, passes, errors):
+        import json
+        line = line.strip()
+        if not line.startswith('{'):
+            if line.startswith('vdbphoton: error:'):
+                errors.append(line)
+            return
+        try:
+            e = json.loads(line)
+        except ValueError:
+            return
+        kind = e.get('event')
+        if kind == 'progress':
+            self.update_progress(min(1.0, max(0.0, float(e.get('fraction', 0.0)))))
+            eta = e.get('eta')
+            self.update_stats('', f"vdbphoton: pass {e.get('passes', 0) + 1}, "
+                                  f"{e.get('elapsed', 0.0):.0f} s"
+                                  + (f', ETA {eta:.0f} s' if eta is not None else ''))
+        elif kind == 'checkpoint':
+            try:
+                self._load(e['path'], result, passes)
+                self.update_result(result)
+            except (OSError, ExportError, KeyError, ValueError):
+                pass
+        elif kind == 'warning':
+            self.report({'WARNING'}, f"vdbphoton: {e.get('message', '')}")
+
+    def _load(self, path, result, passes):
+        """The EXR at `path` into the render result's passes."""
+        import numpy as np
+        ch, (ox, oy), (dw, dh) = read_exr_channels(path)
+        layer = result.layers[0]
+        rw, rh = result.resolution_x, result.resolution_y
+        if (dw, dh) != (rw, rh) or (ox, oy) != (0, 0):
+            raise ExportError(f'{path}: a {dw} x {dh} image, the render is {rw} x {rh}')
+
+        def put(pass_name, names):
+            px = np.stack([ch[n] for n in names], axis=-1)[::-1]
+            layer.passes[pass_name].rect.foreach_set(np.ascontiguousarray(px, np.float32).ravel())
+
+        put('Combined', ['R', 'G', 'B', 'A'])
+        for name, n, chan, exr_layer in passes:
+            names = [f'{exr_layer}.{c}' for c in ('RGBA'[:n] if n > 1 else 'Y')]
+            if all(x in ch for x in names):
+                put(name, names)
+
+
+class RENDER_PT_vdbphoton(bpy.types.Panel):
+    bl_label = 'vdbphoton'
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = 'render'
+    COMPAT_ENGINES = {'VDBPHOTON'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        s = context.scene.vdbphoton
+        col = self.layout.column()
+        col.use_property_split = True
+        col.prop(s, 'integrator')
+        col.prop(s, 'budget')
+        col.prop(s, 'samples' if s.budget == 'SAMPLES' else 'time_limit')
+        col.prop(s, 'max_bounces')
+        col.prop(s, 'seed')
+        col.prop(s, 'threads')
+        col.prop(s, 'denoise')
+        col.prop(s, 'checkpoint')
+
+
+def compatible_panels():
+    """Blender's own panels that also serve this engine: those of the output,
+    format, frame range, colour management, camera and light, which list
+    Blender's built-in engines."""
+    for name in dir(bpy.types):
+        panel = getattr(bpy.types, name, None)
+        engines = getattr(panel, 'COMPAT_ENGINES', None)
+        if isinstance(engines, set) and 'BLENDER_RENDER' in engines and \
+                (name.startswith(('RENDER_PT_', 'DATA_PT_', 'WORLD_PT_'))):
+            yield panel
+
+
+ENGINE_CLASSES = (VDBPHOTON_AddonPreferences, VdbphotonSettings, VdbphotonRenderEngine,
+                  RENDER_PT_vdbphoton)
+
+
 def register():
     bpy.utils.register_class(EXPORT_SCENE_OT_vdbphoton)
     bpy.types.TOPBAR_MT_file_export.append(menu_func_export)
+    for c in ENGINE_CLASSES:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.vdbphoton = bpy.props.PointerProperty(type=VdbphotonSettings)
+    for p in compatible_panels():
+        p.COMPAT_ENGINES.add('VDBPHOTON')
 
 
 def unregister():
+    for p in compatible_panels():
+        p.COMPAT_ENGINES.discard('VDBPHOTON')
+    del bpy.types.Scene.vdbphoton
+    for c in reversed(ENGINE_CLASSES):
+        bpy.utils.unregister_class(c)
     bpy.types.TOPBAR_MT_file_export.remove(menu_func_export)
     bpy.utils.unregister_class(EXPORT_SCENE_OT_vdbphoton)
 

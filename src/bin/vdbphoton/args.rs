@@ -211,6 +211,19 @@ pub struct RenderArgs {
     /// No progress output (the summary line is still printed).
     #[arg(short, long)]
     pub quiet: bool,
+    /// How progress is shown on stderr: `text` (a bar, or a line every
+    /// 10 %) or `json`: one JSON object a line for programs (the Blender
+    /// add-on): {"event": "progress", "fraction", "passes", "elapsed",
+    /// "eta"}, "checkpoint" {"path", "passes"}, "saved" {"path"},
+    /// "warning" {"message"}, "resumed" {"path", "passes", "seconds"},
+    /// "frame" {"frame", "index", "count"}; errors stay plain
+    /// `vdbphoton: error: ...` lines.
+    #[arg(long, value_parser = ["text", "json"], default_value = "text")]
+    pub progress: String,
+    /// Real scattering events at most along a path (overrides the scene's
+    /// `max_bounces`).
+    #[arg(long, value_parser = units::parse_count, allow_negative_numbers = true)]
+    pub max_bounces: Option<u32>,
 }
 
 /// The frames of `--frames` (a type of its own: clap takes a bare `Vec` for

@@ -11,7 +11,7 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
     use vdbphoton::frames::{render_job, FrameJob, FrameOutcome};
     use vdbphoton::render::{Overrides, RenderOptions};
     let t_start = Instant::now();
-    let reporter = CliReporter::new(a.quiet);
+    let reporter = CliReporter::new(a.quiet, a.progress == "json");
     let quick_look = quick_look || vdbphoton::quicklook::is_vdb(&a.scene);
     let mut desc = if quick_look {
         let (desc, notes) = vdbphoton::quicklook::scene_for(&a.scene)?;
@@ -30,6 +30,7 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
         no_preview: a.no_preview,
         spp: a.spp,
         seed: a.seed,
+        max_bounces: a.max_bounces,
         width: a.width,
         height: a.height,
         exposure: a.exposure,

@@ -8,6 +8,8 @@ use crate::one_line;
 /// for every file a finished render writes (the line Flamenco reads).
 pub struct CliReporter {
     quiet: bool,
+    /// `--progress json`: every event one JSON line on stderr.
+    json: bool,
     tty: bool,
     last_decile: std::sync::atomic::AtomicUsize,
     throttle: vdbphoton::render::Throttle,
@@ -17,11 +19,26 @@ pub struct CliReporter {
 
 impl vdbphoton::render::Reporter for CliReporter {
     fn warning(&self, m: &str) {
+        if self.json {
+            return self.emit(serde_json::json!({"event": "warning", "message": m}));
+        }
         self.end_bar();
         eprintln!("vdbphoton: warning: {m}");
     }
     fn progress(&self, p: vdbphoton::render::Progress) {
         if self.quiet {
+            return;
+        }
+        if self.json {
+            if self.throttle.ready(p.fraction >= 1.0) {
+                self.emit(serde_json::json!({
+                    "event": "progress",
+                    "fraction": p.fraction,
+                    "passes": p.passes,
+                    "elapsed": p.elapsed,
+                    "eta": p.eta,
+                }));
+            }
             return;
         }
         let eta = p.eta.map_or("?".to_string(), |e| format!("{e:.0}s"));
@@ -55,12 +72,26 @@ impl vdbphoton::render::Reporter for CliReporter {
         }
     }
     fn checkpoint(&self, path: &std::path::Path, passes: u32) {
-        if !self.quiet {
+        if self.json {
+            self.emit(serde_json::json!({
+                "event": "checkpoint",
+                "path": path.display().to_string(),
+                "passes": passes,
+            }));
+        } else if !self.quiet {
             self.end_bar();
             eprintln!("checkpoint: {} after {passes} passes", path.display());
         }
     }
     fn resumed(&self, state: &std::path::Path, passes: u32, seconds: f64) {
+        if self.json {
+            return self.emit(serde_json::json!({
+                "event": "resumed",
+                "path": state.display().to_string(),
+                "passes": passes,
+                "seconds": seconds,
+            }));
+        }
         self.end_bar();
         eprintln!(
             "resumed: '{}' after {passes} passes ({seconds:.1} s)",
@@ -71,8 +102,19 @@ impl vdbphoton::render::Reporter for CliReporter {
         self.end_bar();
         println!("Saved: '{}'", path.display());
         let _ = std::io::Write::flush(&mut std::io::stdout());
+        if self.json {
+            self.emit(serde_json::json!({"event": "saved", "path": path.display().to_string()}));
+        }
     }
     fn frame_started(&self, frame: u32, index: usize, count: usize) {
+        if self.json {
+            self.emit(serde_json::json!({
+                "event": "frame",
+                "frame": frame,
+                "index": index,
+                "count": count,
+            }));
+        }
         self.last_decile
             .store(0, std::sync::atomic::Ordering::Relaxed);
         if let Ok(mut f) = self.frame.lock() {
@@ -98,16 +140,22 @@ impl vdbphoton::render::Reporter for CliReporter {
 
 impl CliReporter {
     /// A reporter for stderr (a bar when it is a terminal); `quiet`: no
-    /// progress.
-    pub fn new(quiet: bool) -> Self {
+    /// progress; `json`: JSON lines.
+    pub fn new(quiet: bool, json: bool) -> Self {
         use std::io::IsTerminal;
         CliReporter {
             quiet,
-            tty: std::io::stderr().is_terminal(),
+            json,
+            tty: !json && std::io::stderr().is_terminal(),
             last_decile: std::sync::atomic::AtomicUsize::new(0),
             throttle: vdbphoton::render::Throttle::new(std::time::Duration::from_millis(200)),
             frame: std::sync::Mutex::new(String::new()),
         }
+    }
+
+    /// One JSON event, one line (`--progress json`).
+    fn emit(&self, v: serde_json::Value) {
+        eprintln!("{v}");
     }
 
     /// Ends a progress bar's line before other output.

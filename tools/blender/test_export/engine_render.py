@@ -1,0 +1,173 @@
+"""vdbphoton as Blender's render engine, headless (bpy module): builds a
+scene (camera, sun, a Volume object of CLOUD.vdb), registers the add-on,
+selects the engine and renders through Blender's own operators. Prints one
+line `ENGINE {json}` with what it found; tests/blender_engine.rs checks it.
+
+    VENV/bin/python tools/blender/test_export/engine_render.py CLOUD.vdb OUT_DIR CASE
+
+CASE:
+  still      F12 with write_still: OUT_DIR/still.exr (multilayer: the
+             passes), OUT_DIR/still.toml (the scene exported as the engine
+             exports it) and the engine's command line
+  animation  Ctrl-F12 over frames 1-2: OUT_DIR/anim_0001.exr, anim_0002.exr
+  nocamera, novolume, missingvdb
+             a scene without a camera, without a volume, or whose VDB is
+             missing: the error Blender's report gets
+  broken     the binary is not vdbphoton (VDBPHOTON points at /bin/true)
+  missing    the binary does not exist
+  cancel     Esc (the engine's test_break, through its stop_requested) 1.5 s
+             into a long render: how long until the
+             engine returned, and whether the process was gone
+The binary is $VDBPHOTON.
+"""
+import json
+import os
+import sys
+import time
+
+import bpy
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+import vdbphoton_export  # noqa: E402
+
+
+def build(vdb, out_dir):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    r = sc.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = 48, 36, 100
+    sc.frame_start, sc.frame_end, sc.frame_current = 1, 250, 1
+    cam = bpy.data.objects.new('Camera', bpy.data.cameras.new('Camera'))
+    cam.location = (0.0, -4.0, 0.5)
+    cam.rotation_euler = (1.45, 0.0, 0.0)
+    sc.collection.objects.link(cam)
+    sc.camera = cam
+    sun = bpy.data.objects.new('Sun', bpy.data.lights.new('Sun', 'SUN'))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (0.6, 0.2, 0.0)
+    sc.collection.objects.link(sun)
+    vol = bpy.data.volumes.new('Cloud')
+    vol.filepath = vdb
+    obj = bpy.data.objects.new('Cloud', vol)
+    sc.collection.objects.link(obj)
+    mat = bpy.data.materials.new('Smoke')
+    if not mat.node_tree:
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    pv = nt.nodes.new('ShaderNodeVolumePrincipled')
+    pv.inputs['Density'].default_value = 20.0
+    outn = nt.nodes.new('ShaderNodeOutputMaterial')
+    nt.links.new(pv.outputs['Volume'], outn.inputs['Volume'])
+    vol.materials.append(mat)
+    vdbphoton_export.register()
+    r.engine = 'VDBPHOTON'
+    s = sc.vdbphoton
+    s.integrator = 'path'
+    s.samples = 16
+    s.seed = 3
+    s.checkpoint = 0.2
+    if hasattr(r.image_settings, 'media_type'):  # Blender 5
+        r.image_settings.media_type = 'MULTI_LAYER_IMAGE'
+    r.image_settings.file_format = 'OPEN_EXR_MULTILAYER'
+    r.image_settings.color_depth = '32'
+    # The file holds the render result's passes (with compositing on,
+    # Blender writes the compositor's output: Combined alone).
+    r.use_compositing = False
+    r.image_settings.exr_codec = 'ZIP'
+    return sc
+
+
+def main(vdb, out_dir, case):
+    sc = build(vdb, out_dir)
+    found = {'case': case}
+    if case == 'still':
+        path = os.path.join(out_dir, 'still.exr')
+        sc.render.filepath = path
+        bpy.ops.render.render(write_still=True)
+        found['saved'] = os.path.isfile(path)
+        # The scene as the engine exports it, and its command line.
+        toml = os.path.join(out_dir, 'still.toml')
+        vdbphoton_export.export_scene(toml, sc, frames=str(sc.frame_current),
+                                      output=os.path.join(out_dir, 'cli.exr'), no_preview=True)
+        found['command'] = vdbphoton_export.engine_command(
+            os.environ['VDBPHOTON'], toml, os.path.join(out_dir, 'cli.exr'),
+            sc.frame_current, sc.vdbphoton)
+        # The exporter writes a still as the current frame, not 1-250.
+        plain = os.path.join(out_dir, 'plain.toml')
+        vdbphoton_export.export_scene(plain, sc)
+        found['frames_line'] = [line for line in open(plain) if line.startswith('frames')]
+    elif case == 'animation':
+        sc.frame_start, sc.frame_end = 1, 2
+        sc.render.filepath = os.path.join(out_dir, 'anim_')
+        bpy.ops.render.render(animation=True)
+        found['files'] = sorted(f for f in os.listdir(out_dir) if f.startswith('anim_'))
+    elif case in ('nocamera', 'novolume', 'missingvdb'):
+        if case == 'nocamera':
+            sc.camera = None
+        elif case == 'novolume':
+            bpy.data.objects.remove(bpy.data.objects['Cloud'])
+        else:
+            bpy.data.volumes['Cloud'].filepath = os.path.join(out_dir, 'gone.vdb')
+        sc.render.filepath = os.path.join(out_dir, 'bad.exr')
+        try:
+            bpy.ops.render.render(write_still=True)
+            found['error'] = None
+        except RuntimeError as e:
+            found['error'] = str(e)
+        found['survived'] = True
+    elif case in ('broken', 'missing'):
+        os.environ['VDBPHOTON'] = '/bin/true' if case == 'broken' else '/nonexistent/vdbphoton'
+        sc.render.filepath = os.path.join(out_dir, 'broken.exr')
+        # Blender turns the engine's error report into an exception of the
+        # operator when run from a script.
+        try:
+            bpy.ops.render.render(write_still=True)
+            found['error'] = None
+        except RuntimeError as e:
+            found['error'] = str(e)
+        found['survived'] = True
+    elif case == 'cancel':
+        sc.vdbphoton.samples = 1 << 20
+        sc.vdbphoton.checkpoint = 0.3
+        t0 = time.monotonic()
+        marks = {}
+        engine = vdbphoton_export.VdbphotonRenderEngine
+
+        def stop_requested(self):
+            if time.monotonic() - t0 > 1.5:
+                marks.setdefault('break', time.monotonic())
+                return True
+            return False
+
+        engine.stop_requested = stop_requested
+        sc.render.filepath = os.path.join(out_dir, 'cancel.exr')
+        bpy.ops.render.render(write_still=True)
+        done = time.monotonic()
+        found['seconds_after_break'] = done - marks['break'] if 'break' in marks else None
+        # No vdbphoton left running (/proc: processes whose command line
+        # names our scene folder).
+        alive = []
+        for pid in os.listdir('/proc'):
+            if pid.isdigit():
+                try:
+                    cmd = open(f'/proc/{pid}/cmdline', 'rb').read().decode(errors='replace')
+                except OSError:
+                    continue
+                if 'vdbphoton-render-' in cmd and 'render' in cmd:
+                    alive.append(pid)
+        found['alive'] = alive
+        found['temp_left'] = [d for d in os.listdir(os.environ.get('TMPDIR', '/tmp'))
+                              if d.startswith('vdbphoton-render-')]
+    print('ENGINE ' + json.dumps(found), flush=True)
+
+
+try:
+    main(sys.argv[1], sys.argv[2], sys.argv[3])
+except Exception as e:  # noqa: BLE001
+    import traceback
+    traceback.print_exc()
+    print(f'engine_render: {type(e).__name__}: {e}', file=sys.stderr, flush=True)
+    os._exit(1)
+os._exit(0)
