@@ -284,3 +284,42 @@ fn photons_are_not_spent_where_nothing_scatters() {
         "{err}"
     );
 }
+
+/// The Blender add-on passes its version; a binary that does not speak an
+/// add-on of that major version refuses in one line, before any work (the
+/// add-on checks the binary's `--version` the other way).
+#[test]
+fn an_addon_of_another_version_is_refused() {
+    let dir = common::tempdir();
+    let exr = dir.path().join("v.exr");
+    let args = |v: &str| {
+        vec![
+            format!("{SCENES}/cloud.toml"),
+            "-o".into(),
+            exr.to_str().unwrap().into(),
+            "--no-preview".into(),
+            "--width".into(),
+            "16".into(),
+            "--height".into(),
+            "12".into(),
+            "--spp".into(),
+            "1".into(),
+            "--addon-version".into(),
+            v.into(),
+        ]
+    };
+    let run = |v: &str| {
+        let a = args(v);
+        render(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let (code, _, err) = run("2.0.0");
+    assert_eq!(code, 1, "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("add-on is version 2.0.0") && err.contains("1.x"),
+        "{err}"
+    );
+    assert!(!exr.exists());
+    let (code, _, err) = run("1.1.0");
+    assert_eq!(code, 0, "{err}");
+}

@@ -1590,7 +1590,8 @@ def engine_command(exe, scene_file, exr, frame, s):
     """The command line the engine runs for settings `s` (the scene's
     VdbphotonSettings)."""
     args = [exe, 'render', scene_file, '--frame', str(frame), '-o', exr, '--no-preview',
-            '--progress', 'json', '--aovs', '--integrator', s.integrator,
+            '--progress', 'json', '--addon-version', '.'.join(map(str, bl_info['version'])),
+            '--aovs', '--integrator', s.integrator,
             '--seed', str(s.seed), '--checkpoint', f'{s.checkpoint:g}s']
     if s.budget == 'TIME':
         args += ['--time', f'{s.time_limit:g}s']

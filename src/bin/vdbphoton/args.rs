@@ -220,6 +220,11 @@ pub struct RenderArgs {
     /// `vdbphoton: error: ...` lines.
     #[arg(long, value_parser = ["text", "json"], default_value = "text")]
     pub progress: String,
+    /// The version of the Blender add-on that runs this render (it passes
+    /// its own): a render is refused, before any work, when this binary
+    /// does not speak that add-on's progress stream and options.
+    #[arg(long, hide = true)]
+    pub addon_version: Option<String>,
     /// Real scattering events at most along a path (overrides the scene's
     /// `max_bounces`).
     #[arg(long, value_parser = units::parse_count, allow_negative_numbers = true)]

@@ -11,6 +11,9 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
     use vdbphoton::frames::{render_job, FrameJob, FrameOutcome};
     use vdbphoton::render::{Overrides, RenderOptions};
     let t_start = Instant::now();
+    if let Some(v) = &a.addon_version {
+        check_addon(v)?;
+    }
     let reporter = CliReporter::new(a.quiet, a.progress == "json");
     let quick_look = quick_look || vdbphoton::quicklook::is_vdb(&a.scene);
     let mut desc = if quick_look {
@@ -93,4 +96,24 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+/// The major version of the Blender add-on (tools/blender/vdbphoton_export.py,
+/// `bl_info["version"]`) whose progress stream and options this binary
+/// speaks; the add-on checks the binary's `--version` the other way.
+const ADDON_MAJOR: u32 = 1;
+
+/// Refuses to render for an add-on of another major version.
+fn check_addon(version: &str) -> Result<()> {
+    let major = version
+        .split('.')
+        .next()
+        .and_then(|m| m.parse::<u32>().ok());
+    if major == Some(ADDON_MAJOR) {
+        return Ok(());
+    }
+    Err(Error::Argument(format!(
+        "the Blender add-on is version {version}; this vdbphoton ({}) speaks to add-on {ADDON_MAJOR}.x: install the add-on that comes with this binary (tools/blender/vdbphoton_export.py)",
+        env!("CARGO_PKG_VERSION")
+    )))
 }
