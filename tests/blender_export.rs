@@ -943,7 +943,8 @@ fn channel_bits(path: &Path) -> std::collections::BTreeMap<String, Vec<u32>> {
 /// vdbphoton as Blender's render engine (`tools/blender/test_export/
 /// engine_render.py`, one case a process): F12 saves the image the command
 /// line renders from the exported scene, bit for bit, with the AOVs as
-/// render passes; the exporter writes a still as the current frame;
+/// render passes; what it does not render is a warning in Blender's
+/// report; the exporter writes a still as the current frame;
 /// Ctrl-F12 writes a file a frame; a binary that is not vdbphoton, or none,
 /// no camera, no volume or a missing VDB is an error in Blender's report
 /// and no crash; Esc ends the render
@@ -966,7 +967,7 @@ fn blender_renders_with_the_vdbphoton_engine() {
         ),
         "generate",
     );
-    let case = |name: &str| -> serde_json::Value {
+    let case = |name: &str| -> (serde_json::Value, String) {
         let out_dir = dir.join(name);
         let temp = out_dir.join("tmp");
         std::fs::create_dir_all(&temp).unwrap();
@@ -988,12 +989,17 @@ fn blender_renders_with_the_vdbphoton_engine() {
             .lines()
             .find_map(|l| l.strip_prefix("ENGINE "))
             .unwrap_or_else(|| panic!("{name}: no ENGINE line:\n{text}"));
-        serde_json::from_str(line).unwrap()
+        (serde_json::from_str(line).unwrap(), text.into_owned())
     };
 
     // F12: the saved image is the command line's render, bit for bit.
-    let still = case("still");
+    let (still, console) = case("still");
     assert_eq!(still["saved"], true, "{still}");
+    // The area light it does not render: named in a warning of the report.
+    assert!(
+        console.contains("Warning: vdbphoton: light 'Softbox' is an area light"),
+        "{console}"
+    );
     assert_eq!(still["frames_line"][0], "frames = \"1\"\n", "{still}");
     let argv: Vec<String> = still["command"]
         .as_array()
@@ -1030,14 +1036,14 @@ fn blender_renders_with_the_vdbphoton_engine() {
     }
     assert!(cli["R"].iter().any(|&b| b != 0));
 
-    let anim = case("animation");
+    let (anim, _) = case("animation");
     assert_eq!(
         anim["files"],
         serde_json::json!(["anim_0001.exr", "anim_0002.exr"]),
         "{anim}"
     );
 
-    let broken = case("broken");
+    let (broken, _) = case("broken");
     assert_eq!(broken["survived"], true);
     assert!(
         broken["error"]
@@ -1045,7 +1051,7 @@ fn blender_renders_with_the_vdbphoton_engine() {
             .is_some_and(|e| e.contains("/bin/true' is not a vdbphoton binary")),
         "{broken}"
     );
-    let missing = case("missing");
+    let (missing, _) = case("missing");
     assert!(
         missing["error"]
             .as_str()
@@ -1059,7 +1065,7 @@ fn blender_renders_with_the_vdbphoton_engine() {
         ("novolume", "has no Volume object or smoke domain"),
         ("missingvdb", "gone.vdb"),
     ] {
-        let r = case(name);
+        let (r, _) = case(name);
         assert_eq!(r["survived"], true, "{r}");
         assert!(
             r["error"].as_str().is_some_and(|e| e.contains(says)),
@@ -1067,7 +1073,7 @@ fn blender_renders_with_the_vdbphoton_engine() {
         );
     }
 
-    let cancel = case("cancel");
+    let (cancel, _) = case("cancel");
     let after = cancel["seconds_after_break"].as_f64().expect("no break");
     assert!(after < 1.5, "the render went on {after} s after Esc");
     assert_eq!(cancel["alive"], serde_json::json!([]), "{cancel}");
