@@ -943,7 +943,9 @@ fn channel_bits(path: &Path) -> std::collections::BTreeMap<String, Vec<u32>> {
 /// vdbphoton as Blender's render engine (`tools/blender/test_export/
 /// engine_render.py`, one case a process): F12 saves the image the command
 /// line renders from the exported scene, bit for bit, with the AOVs as
-/// render passes; what it does not render is a warning in Blender's
+/// render passes; the progress and each checkpoint reach Blender while it
+/// renders; a folder that cannot be written is Blender's error and the
+/// earlier image stays; what it does not render is a warning in Blender's
 /// report; the exporter writes a still as the current frame;
 /// Ctrl-F12 writes a file a frame; a binary that is not vdbphoton, or none,
 /// no camera, no volume or a missing VDB is an error in Blender's report
@@ -995,6 +997,30 @@ fn blender_renders_with_the_vdbphoton_engine() {
     // F12: the saved image is the command line's render, bit for bit.
     let (still, console) = case("still");
     assert_eq!(still["saved"], true, "{still}");
+    // While it rendered: the progress bar and status line followed the
+    // renderer, up to 1, and each checkpoint was drawn into the image.
+    let progress = still["seen"]["progress"].as_array().unwrap();
+    let fractions: Vec<f64> = progress.iter().map(|p| p[0].as_f64().unwrap()).collect();
+    assert!(fractions.len() >= 3, "{progress:?}");
+    assert!(fractions.windows(2).all(|w| w[0] <= w[1]), "{fractions:?}");
+    assert_eq!(*fractions.last().unwrap(), 1.0);
+    assert!(progress
+        .iter()
+        .all(|p| p[1].as_str().unwrap().contains("pass ")));
+    let checkpoints = still["seen"]["checkpoints"].as_array().unwrap();
+    assert!(checkpoints.len() >= 2, "{checkpoints:?}");
+    let passes: Vec<u64> = checkpoints.iter().map(|c| c[0].as_u64().unwrap()).collect();
+    assert!(passes.windows(2).all(|w| w[0] < w[1]), "{passes:?}");
+    assert!(checkpoints.iter().all(|c| c[1].as_f64().unwrap() > 0.0));
+    // A folder that cannot be written: Blender's error, the earlier image
+    // kept.
+    assert!(
+        still["readonly_error"]
+            .as_str()
+            .is_some_and(|e| e.contains("cannot save") && e.contains("/sys/vdbphoton-test")),
+        "{still}"
+    );
+    assert_eq!(still["earlier_kept"], true);
     // The area light it does not render: named in a warning of the report.
     assert!(
         console.contains("Warning: vdbphoton: light 'Softbox' is an area light"),

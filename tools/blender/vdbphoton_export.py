@@ -1757,10 +1757,22 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
         self.end_result(result)
         self.update_progress(1.0)
 
+    # Blender's side of the render, as methods of ours so that a test can
+    # watch them (Blender's own, `test_break`, `update_progress`, ..., are
+    # RNA functions that Python cannot replace).
+
     def stop_requested(self):
-        """Whether Blender asked to stop (Esc): `test_break`. (A method of
-        ours, so that a test can stand in for the user.)"""
+        """Whether Blender asked to stop (Esc): `test_break`."""
         return self.test_break()
+
+    def show_progress(self, fraction, text):
+        """The progress bar and the status line."""
+        self.update_progress(fraction)
+        self.update_stats('', text)
+
+    def show_checkpoint(self, result, passes):
+        """A checkpoint of `passes` passes, loaded into `result`, drawn."""
+        self.update_result(result)
 
     def _event(self, line, result, passes, errors):
         import json
@@ -1775,15 +1787,15 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
             return
         kind = e.get('event')
         if kind == 'progress':
-            self.update_progress(min(1.0, max(0.0, float(e.get('fraction', 0.0)))))
             eta = e.get('eta')
-            self.update_stats('', f"vdbphoton: pass {e.get('passes', 0) + 1}, "
-                                  f"{e.get('elapsed', 0.0):.0f} s"
-                                  + (f', ETA {eta:.0f} s' if eta is not None else ''))
+            self.show_progress(min(1.0, max(0.0, float(e.get('fraction', 0.0)))),
+                               f"vdbphoton: pass {e.get('passes', 0) + 1}, "
+                               f"{e.get('elapsed', 0.0):.0f} s"
+                               + (f', ETA {eta:.0f} s' if eta is not None else ''))
         elif kind == 'checkpoint':
             try:
                 self._load(e['path'], result, passes)
-                self.update_result(result)
+                self.show_checkpoint(result, int(e.get('passes', 0)))
             except (OSError, ExportError, KeyError, ValueError):
                 pass
         elif kind == 'warning':

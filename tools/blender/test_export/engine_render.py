@@ -89,8 +89,42 @@ def main(vdb, out_dir, case):
         sc.collection.objects.link(area)
         path = os.path.join(out_dir, 'still.exr')
         sc.render.filepath = path
+        # What Blender is shown while it renders: the progress and each
+        # checkpoint as it lands (mean of the Combined pass then).
+        engine = vdbphoton_export.VdbphotonRenderEngine
+        seen = {'progress': [], 'checkpoints': []}
+        show_progress, show_checkpoint = engine.show_progress, engine.show_checkpoint
+
+        def progress(self, fraction, text):
+            seen['progress'].append([fraction, text])
+            show_progress(self, fraction, text)
+
+        def checkpoint(self, result, passes):
+            px = result.layers[0].passes['Combined'].rect
+            n = len(px)
+            seen['checkpoints'].append([passes, sum(p[0] for p in px) / max(n, 1)])
+            show_checkpoint(self, result, passes)
+
+        engine.show_progress, engine.show_checkpoint = progress, checkpoint
+        sc.vdbphoton.samples = 400
+        sc.vdbphoton.checkpoint = 0.1
+        bpy.ops.render.render(write_still=True)
+        engine.show_progress, engine.show_checkpoint = show_progress, show_checkpoint
+        sc.vdbphoton.samples = 16
+        found['seen'] = seen
+        # And F12 at 16 samples, compared with the command line.
         bpy.ops.render.render(write_still=True)
         found['saved'] = os.path.isfile(path)
+        first = open(path, 'rb').read()
+        # A folder that cannot be written: Blender's report, the earlier
+        # image kept.
+        sc.render.filepath = '/sys/vdbphoton-test/still.exr'
+        try:
+            bpy.ops.render.render(write_still=True)
+            found['readonly_error'] = None
+        except RuntimeError as e:
+            found['readonly_error'] = str(e)
+        found['earlier_kept'] = open(path, 'rb').read() == first
         # The scene as the engine exports it, and its command line.
         toml = os.path.join(out_dir, 'still.toml')
         vdbphoton_export.export_scene(toml, sc, frames=str(sc.frame_current),
