@@ -1021,6 +1021,17 @@ fn blender_renders_with_the_vdbphoton_engine() {
         "{still}"
     );
     assert_eq!(still["earlier_kept"], true);
+    // The panel in Render Properties: for this engine only, with the
+    // settings that matter; Blender's format panel serves it too.
+    assert_eq!(
+        still["panel"],
+        serde_json::json!({
+            "drawn": ["integrator", "budget", "samples", "max_bounces", "seed", "threads",
+                      "denoise", "checkpoint"],
+            "ours": true, "cycles": false, "format_panel": true
+        }),
+        "{still}"
+    );
     // The area light it does not render: named in a warning of the report.
     assert!(
         console.contains("Warning: vdbphoton: light 'Softbox' is an area light"),

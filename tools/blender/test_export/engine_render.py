@@ -125,6 +125,26 @@ def main(vdb, out_dir, case):
         except RuntimeError as e:
             found['readonly_error'] = str(e)
         found['earlier_kept'] = open(path, 'rb').read() == first
+        # The panel: shown for this engine only, with the settings that
+        # matter (drawn into a layout that records what it is given).
+        from types import SimpleNamespace
+        panel = vdbphoton_export.RENDER_PT_vdbphoton
+        drawn = []
+
+        class Layout:
+            use_property_split = False
+
+            def column(self):
+                return self
+
+            def prop(self, data, name):
+                drawn.append(name)
+
+        panel.draw(SimpleNamespace(layout=Layout()), SimpleNamespace(scene=sc))
+        found['panel'] = {'drawn': drawn,
+                          'ours': panel.poll(SimpleNamespace(engine='VDBPHOTON')),
+                          'cycles': panel.poll(SimpleNamespace(engine='CYCLES')),
+                          'format_panel': 'VDBPHOTON' in bpy.types.RENDER_PT_format.COMPAT_ENGINES}
         # The scene as the engine exports it, and its command line.
         toml = os.path.join(out_dir, 'still.toml')
         vdbphoton_export.export_scene(toml, sc, frames=str(sc.frame_current),
