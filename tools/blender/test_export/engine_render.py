@@ -9,6 +9,8 @@ CASE:
   still      F12 with write_still: OUT_DIR/still.exr (multilayer: the
              passes), OUT_DIR/still.toml (the scene exported as the engine
              exports it) and the engine's command line
+  denoise    F12 with Denoise: OUT_DIR/denoised.exr (Combined denoised, Noisy
+             Image, Denoising Albedo) and the engine's command line
   animation  Ctrl-F12 over frames 1-2: OUT_DIR/anim_0001.exr, anim_0002.exr
   nocamera, novolume, missingvdb
              a scene without a camera, without a volume, or whose VDB is
@@ -156,6 +158,18 @@ def main(vdb, out_dir, case):
         plain = os.path.join(out_dir, 'plain.toml')
         vdbphoton_export.export_scene(plain, sc)
         found['frames_line'] = [line for line in open(plain) if line.startswith('frames')]
+    elif case == 'denoise':
+        sc.vdbphoton.denoise = True
+        path = os.path.join(out_dir, 'denoised.exr')
+        sc.render.filepath = path
+        bpy.ops.render.render(write_still=True)
+        found['saved'] = os.path.isfile(path)
+        toml = os.path.join(out_dir, 'denoise.toml')
+        vdbphoton_export.export_scene(toml, sc, frames=str(sc.frame_current),
+                                      output=os.path.join(out_dir, 'cli.exr'), no_preview=True)
+        found['command'] = vdbphoton_export.engine_command(
+            os.environ['VDBPHOTON'], toml, os.path.join(out_dir, 'cli.exr'),
+            sc.frame_current, sc.vdbphoton)
     elif case == 'animation':
         sc.frame_start, sc.frame_end = 1, 2
         sc.render.filepath = os.path.join(out_dir, 'anim_')
