@@ -213,7 +213,7 @@ fn good_file_prints_its_grids() {
     assert!(d["memory_bytes"].as_u64().unwrap() > 0);
     assert_eq!(
         v["metadata"]["creator"].as_str().unwrap(),
-        "vdbphoton 0.1.0"
+        concat!("vdbphoton ", env!("CARGO_PKG_VERSION"))
     );
 }
 

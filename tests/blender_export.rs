@@ -1117,6 +1117,38 @@ fn blender_renders_with_the_vdbphoton_engine() {
         }
     }
 
+    // A border (cropped): its pixels are the whole frame's there (the
+    // engine renders it as a --region of the same streams).
+    let (border, console) = case("border");
+    assert_eq!(
+        border["files"],
+        serde_json::json!([true, true]),
+        "{console}"
+    );
+    let whole = channel_bits(&dir.join("border/whole.exr"));
+    let part = channel_bits(&dir.join("border/border.exr"));
+    let (w, h) = (48usize, 36usize);
+    let (x0, x1, y0, y1) = (12usize, 36usize, 0usize, 18usize);
+    for c in ["R", "A"] {
+        let key = format!("ViewLayer.Combined.{c}");
+        let crop: Vec<u32> = (h - y1..h - y0)
+            .flat_map(|y| (x0..x1).map(move |x| y * w + x))
+            .map(|i| whole[&key][i])
+            .collect();
+        assert_eq!(
+            part[&key], crop,
+            "the border's {c} is not the frame's there"
+        );
+    }
+    // Two view layers: each its own image (the engine renders once a
+    // layer), here the same scene, so the same pixels.
+    let (layers, console) = case("layers");
+    assert_eq!(layers["files"], serde_json::json!([true]), "{console}");
+    let both = channel_bits(&dir.join("layers/layers.exr"));
+    let (first, second) = (&both["ViewLayer.Combined.R"], &both["Second.Combined.R"]);
+    assert!(first.iter().any(|&b| b != 0), "the first layer is empty");
+    assert_eq!(first, second, "the second view layer did not get its image");
+
     let (anim, _) = case("animation");
     assert_eq!(
         anim["files"],

@@ -35,8 +35,12 @@ pub struct RenderOptions {
     /// fits), instead of until the scene's `spp`.
     pub time_limit: Option<Duration>,
     /// Rewrite the outputs this often while rendering (each write atomic, so
-    /// the last complete checkpoint is always a valid image).
+    /// the last complete checkpoint is always a valid image), with the
+    /// state a resumed render goes on from (`resume`).
     pub checkpoint: Option<Duration>,
+    /// Checkpoints without the resume state: previews only (the Blender
+    /// add-on's progressive display, which never resumes).
+    pub no_resume_state: bool,
     /// More header attributes (e.g. the scene file's name).
     pub attributes: Vec<(String, String)>,
     /// Memory the render may use, bytes (`None`: what the machine has
@@ -632,7 +636,8 @@ pub fn render_scene(
             None => Stop::Passes(r.spp.div_ceil(per_pass).max(1)),
         };
         // (The identity hashes the executable: only when a state is in play.)
-        let id = (r.resume || opts.checkpoint.is_some())
+        let writes_state = opts.checkpoint.is_some() && !opts.no_resume_state;
+        let id = (r.resume || writes_state)
             .then(|| resume::Identity::of(desc, integrator.name(), &film));
         let start = match &id {
             Some(id) if r.resume => resume_from(
@@ -657,7 +662,7 @@ pub fn render_scene(
             start,
             reporter,
             |film, integrator, at, last| {
-                let (Some(every), Some(id)) = (opts.checkpoint, &id) else {
+                let Some(every) = opts.checkpoint else {
                     return Ok(());
                 };
                 if at.passes == saved || (!last && last_checkpoint.elapsed() < every) {
@@ -665,7 +670,9 @@ pub fn render_scene(
                 }
                 // The state first: an EXR with a state beside it is a
                 // checkpoint (`resume::is_finished`).
-                resume::write(&state_path, id, at, &integrator.state(), film)?;
+                if let (true, Some(id)) = (writes_state, &id) {
+                    resume::write(&state_path, id, at, &integrator.state(), film)?;
+                }
                 let attrs = attributes(
                     desc,
                     integrator,
@@ -693,7 +700,7 @@ pub fn render_scene(
             // The state written or resumed from keeps `saved` passes.
             Error::Interrupted { signal, kept: None } => Error::Interrupted {
                 signal,
-                kept: (saved > 0).then(|| {
+                kept: (saved > 0 && (writes_state || r.resume)).then(|| {
                     format!(
                         "the checkpoint '{}' keeps {saved} passes; --resume goes on from them",
                         r.output.display()

@@ -1485,7 +1485,7 @@ def menu_func_export(self, context):
 
 # The binary's version this add-on speaks to (`vdbphoton --version`): the
 # same major and minor.
-BINARY_VERSION = (0, 1)
+BINARY_VERSION = (0, 2)
 
 # Render passes from the EXR's layers: (pass name, channels, Blender's
 # channel ids, EXR layer).
@@ -1592,7 +1592,7 @@ def engine_command(exe, scene_file, exr, frame, s):
     args = [exe, 'render', scene_file, '--frame', str(frame), '-o', exr, '--no-preview',
             '--progress', 'json', '--addon-version', '.'.join(map(str, bl_info['version'])),
             '--aovs', '--integrator', s.integrator,
-            '--seed', str(s.seed), '--checkpoint', f'{s.checkpoint:g}s']
+            '--seed', str(s.seed), '--checkpoint', f'{s.checkpoint:g}s', '--no-resume-state']
     if s.budget == 'TIME':
         args += ['--time', f'{s.time_limit:g}s']
     else:
@@ -1640,8 +1640,9 @@ class VdbphotonSettings(bpy.types.PropertyGroup):
     denoise: bpy.props.BoolProperty(name='Denoise', default=False,
                                     description='Denoise with Open Image Denoise')
     checkpoint: bpy.props.FloatProperty(
-        name='Update Interval', default=2.0, min=0.1, max=3600.0, unit='TIME_ABSOLUTE',
-        description='How often the image in Blender is updated while rendering')
+        name='Update Interval', default=5.0, min=0.1, max=3600.0, unit='TIME_ABSOLUTE',
+        description='How often the image in Blender is updated while rendering (each '
+                    'update writes an image: about 0.5 s at 1920 x 1080)')
 
 
 class VdbphotonRenderEngine(bpy.types.RenderEngine):
@@ -1677,15 +1678,14 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
 
     def _render(self, depsgraph, scene, exe, tmp):
         import queue
-        import signal
         import subprocess
         import threading
-        import time
         s = scene.vdbphoton
         r = scene.render
         w = r.resolution_x * r.resolution_percentage // 100
         h = r.resolution_y * r.resolution_percentage // 100
         frame = scene.frame_current
+        layer = depsgraph.view_layer.name
         scene_file = os.path.join(tmp, 'scene.toml')
         exr = os.path.join(tmp, 'frame.exr')
         msgs = []
@@ -1693,69 +1693,84 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
             export_scene(scene_file, scene, depsgraph.view_layer,
                          warn=lambda kind, m: msgs.append((kind, m)),
                          frames=str(frame), output=exr, no_preview=True)
-        except ExportError as e:
+        except (ExportError, OSError, ValueError) as e:
             self.report({'ERROR'}, f'vdbphoton: {e}')
             return
         for kind, m in msgs:
-            if kind == 'warning':
+            # The engine renders a border itself (--region).
+            if kind == 'warning' and 'render region (border)' not in m:
                 self.report({'WARNING'}, f'vdbphoton: {m}')
-        # The passes update_render_passes registered, in the result.
+        # The passes update_render_passes registered, in this view layer's
+        # result (Blender calls render() once per view layer).
         passes = AOV_PASSES + (DENOISE_PASSES if s.denoise else [])
-        result = self.begin_result(0, 0, w, h)
+        result = self.begin_result(0, 0, w, h, layer=layer)
+        args = engine_command(exe, scene_file, exr, frame, s)
+        if r.use_border:
+            # Blender's result is the border (as its pipeline cuts it:
+            # truncated fractions of the image, y from the bottom); render
+            # just those pixels (--region, y from the top).
+            x0, x1 = int(r.border_min_x * w), int(r.border_max_x * w)
+            y0, y1 = int(r.border_min_y * h), int(r.border_max_y * h)
+            args += ['--region', f'{x0},{h - y1},{x1},{h - y0}']
         self.update_stats('', f'vdbphoton: frame {frame}, starting')
+        proc = None
         try:
-            proc = subprocess.Popen(engine_command(exe, scene_file, exr, frame, s),
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                    text=True, bufsize=1)
-        except OSError as e:
-            self.report({'ERROR'}, f"vdbphoton: cannot run '{exe}': {e}")
-            self.end_result(result)
-            return
-        lines = queue.Queue()
-
-        def pump():
-            for line in proc.stderr:
-                lines.put(line)
-            lines.put(None)
-
-        threading.Thread(target=pump, daemon=True).start()
-        errors = []
-        ended = False
-        while not ended:
             try:
-                line = lines.get(timeout=0.05)
-            except queue.Empty:
-                line = ''
-            if line is None:
-                ended = True
-            elif line:
-                self._event(line, result, passes, errors)
-            if not ended and self.stop_requested():
-                # Esc: stop the render (SIGTERM; a render that has not
-                # ended within a second is killed). The last checkpoint
-                # drawn stays in the image.
-                proc.send_signal(signal.SIGTERM)
+                proc = subprocess.Popen(args, stdout=subprocess.DEVNULL,
+                                        stderr=subprocess.PIPE, text=True,
+                                        encoding='utf-8', errors='replace', bufsize=1)
+            except OSError as e:
+                self.report({'ERROR'}, f"vdbphoton: cannot run '{exe}': {e}")
+                return
+            lines = queue.Queue()
+
+            def pump():
+                try:
+                    for line in proc.stderr:
+                        lines.put(line)
+                finally:
+                    lines.put(None)
+
+            threading.Thread(target=pump, daemon=True).start()
+            errors = []
+            while True:
+                try:
+                    line = lines.get(timeout=0.05)
+                except queue.Empty:
+                    line = ''
+                if line is None:
+                    break
+                if line:
+                    self._event(line, result, passes, errors)
+                if self.stop_requested():
+                    # Esc: stop the render (the `finally` below). The last
+                    # checkpoint drawn stays in the image.
+                    self.update_stats('', 'vdbphoton: cancelled')
+                    return
+            rc = proc.wait()
+            if rc != 0:
+                # The first error names the file or setting; later ones
+                # sum up.
+                self.report({'ERROR'}, errors[0] if errors else
+                            f'vdbphoton: the render failed (exit code {rc})')
+                return
+            try:
+                self._load(exr, result, passes)
+            except Exception as e:  # noqa: BLE001 (any unreadable image is one report)
+                self.report({'ERROR'}, f'vdbphoton: cannot read the rendered image: {e}')
+                return
+            self.update_progress(1.0)
+        finally:
+            # Whatever happened: the process ends (SIGTERM, killed after a
+            # second) and the result is handed back once.
+            if proc is not None and proc.poll() is None:
+                proc.terminate()
                 try:
                     proc.wait(timeout=1.0)
                 except subprocess.TimeoutExpired:
                     proc.kill()
-                proc.wait()
-                self.end_result(result)
-                self.update_stats('', 'vdbphoton: cancelled')
-                return
-        rc = proc.wait()
-        if rc != 0:
-            # The first error names the file or setting; later ones sum up.
-            self.report({'ERROR'}, errors[0] if errors else
-                        f'vdbphoton: the render failed (exit code {rc})')
+                    proc.wait()
             self.end_result(result)
-            return
-        try:
-            self._load(exr, result, passes)
-        except (OSError, ExportError, KeyError, ValueError) as e:
-            self.report({'ERROR'}, f'vdbphoton: cannot read the rendered image: {e}')
-        self.end_result(result)
-        self.update_progress(1.0)
 
     # Blender's side of the render, as methods of ours so that a test can
     # watch them (Blender's own, `test_break`, `update_progress`, ..., are
@@ -1778,7 +1793,9 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
         import json
         line = line.strip()
         if not line.startswith('{'):
-            if line.startswith('vdbphoton: error:'):
+            # Errors, and the command line's own complaints (an option this
+            # binary does not know), are `vdbphoton: ...` lines.
+            if line.startswith('vdbphoton: ') and not line.startswith('vdbphoton: warning:'):
                 errors.append(line)
             return
         try:
@@ -1795,20 +1812,21 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
         elif kind == 'checkpoint':
             try:
                 self._load(e['path'], result, passes)
-                self.show_checkpoint(result, int(e.get('passes', 0)))
-            except (OSError, ExportError, KeyError, ValueError):
-                pass
+            except Exception:  # noqa: BLE001 (a checkpoint not drawn is no error)
+                return
+            self.show_checkpoint(result, int(e.get('passes', 0)))
         elif kind == 'warning':
             self.report({'WARNING'}, f"vdbphoton: {e.get('message', '')}")
 
     def _load(self, path, result, passes):
         """The EXR at `path` into the render result's passes."""
         import numpy as np
-        ch, (ox, oy), (dw, dh) = read_exr_channels(path)
+        ch, _, _ = read_exr_channels(path)
         layer = result.layers[0]
         rw, rh = result.resolution_x, result.resolution_y
-        if (dw, dh) != (rw, rh) or (ox, oy) != (0, 0):
-            raise ExportError(f'{path}: a {dw} x {dh} image, the render is {rw} x {rh}')
+        dh, dw = ch['R'].shape
+        if (dw, dh) != (rw, rh):
+            raise ExportError(f'{path}: {dw} x {dh} pixels, the render is {rw} x {rh}')
 
         def put(pass_name, names):
             px = np.stack([ch[n] for n in names], axis=-1)[::-1]

@@ -185,6 +185,10 @@ pub struct RenderArgs {
     /// warning for the latter).
     #[arg(long)]
     pub resume: bool,
+    /// Checkpoints without the resume state (previews only: the Blender
+    /// add-on's display while it renders).
+    #[arg(long, requires = "checkpoint")]
+    pub no_resume_state: bool,
     /// Memory the render may use (e.g. 8G, 512M; default: what the machine
     /// has available). A render that needs more is refused before it
     /// starts.

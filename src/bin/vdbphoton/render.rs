@@ -56,6 +56,7 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
         threads: a.threads.map(|t| t as usize),
         time_limit: a.time,
         checkpoint: a.checkpoint,
+        no_resume_state: a.no_resume_state,
         max_memory: a.max_memory,
         attributes: vec![("vdbphoton/scene".to_string(), a.scene.display().to_string())],
         region,

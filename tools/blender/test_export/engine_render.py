@@ -11,6 +11,8 @@ CASE:
              exports it) and the engine's command line
   denoise    F12 with Denoise: OUT_DIR/denoised.exr (Combined denoised, Noisy
              Image, Denoising Albedo) and the engine's command line
+  border     F12 of a cropped border against the whole frame's pixels there
+  layers     two view layers, each its own image
   animation  Ctrl-F12 over frames 1-2: OUT_DIR/anim_0001.exr, anim_0002.exr
   nocamera, novolume, missingvdb
              a scene without a camera, without a volume, or whose VDB is
@@ -170,6 +172,28 @@ def main(vdb, out_dir, case):
         found['command'] = vdbphoton_export.engine_command(
             os.environ['VDBPHOTON'], toml, os.path.join(out_dir, 'cli.exr'),
             sc.frame_current, sc.vdbphoton)
+    elif case == 'border':
+        # F12 of the whole frame, then of a border (cropped): the border's
+        # pixels are the whole frame's there (vdbphoton renders the region
+        # with the whole frame's streams).
+        whole = os.path.join(out_dir, 'whole.exr')
+        sc.render.filepath = whole
+        bpy.ops.render.render(write_still=True)
+        r = sc.render
+        r.use_border, r.use_crop_to_border = True, True
+        r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.0, 0.5
+        part = os.path.join(out_dir, 'border.exr')
+        sc.render.filepath = part
+        bpy.ops.render.render(write_still=True)
+        found['files'] = [os.path.isfile(whole), os.path.isfile(part)]
+    elif case == 'layers':
+        # Two view layers: each gets its own image (Blender calls the
+        # engine once a layer).
+        sc.view_layers.new('Second')
+        path = os.path.join(out_dir, 'layers.exr')
+        sc.render.filepath = path
+        bpy.ops.render.render(write_still=True)
+        found['files'] = [os.path.isfile(path)]
     elif case == 'animation':
         sc.frame_start, sc.frame_end = 1, 2
         sc.render.filepath = os.path.join(out_dir, 'anim_')
