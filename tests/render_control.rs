@@ -72,7 +72,8 @@ fn time_budget_and_photon_header() {
 }
 
 /// Starts a render of the default scene at many samples with a checkpoint
-/// every `checkpoint`, waits until `wait` has passed, sends `signal`.
+/// every `checkpoint`, waits until it is under way and then `wait` more,
+/// sends `signal`.
 fn interrupt(signal: &str, checkpoint: Option<&str>, wait: Duration) -> (i32, tempfile::TempDir) {
     let dir = common::tempdir();
     let exr = dir.path().join("i.exr");
@@ -101,6 +102,30 @@ fn interrupt(signal: &str, checkpoint: Option<&str>, wait: Duration) -> (i32, te
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    // Under way: the render names itself in its output's lock once it has
+    // started (its signal handlers are in place by then; a signal before
+    // that, on a loaded machine, would find the process still starting).
+    let lock = vdbphoton::render::resume::lock_path(&exr);
+    let t0 = Instant::now();
+    while std::fs::read_to_string(&lock)
+        .unwrap_or_default()
+        .is_empty()
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the render never started"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    // With checkpoints: once the first is down (a signal before the first
+    // pass ends writes nothing, rightly).
+    while checkpoint.is_some() && !exr.exists() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "no first checkpoint"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
     std::thread::sleep(wait);
     let ok = Command::new("kill")
         .args([signal, &child.id().to_string()])
@@ -133,7 +158,7 @@ fn interrupted_render_leaves_nothing_partial() {
 
 #[test]
 fn the_last_checkpoint_survives_an_interruption() {
-    let (code, dir) = interrupt("-INT", Some("0.3s"), Duration::from_millis(2500));
+    let (code, dir) = interrupt("-INT", Some("0.3s"), Duration::from_millis(1000));
     assert_eq!(code, 130);
     // The checkpoint, its preview and its resume state (`tests/resume.rs`),
     // whole, and no temporary files.
