@@ -940,6 +940,42 @@ fn channel_bits(path: &Path) -> std::collections::BTreeMap<String, Vec<u32>> {
     out
 }
 
+/// Runs the command line the engine ran (`found["command"]`, writing
+/// `cli_exr`) and checks that each pass of the engine's image `engine_exr`
+/// holds the bits of its command-line channel (`pairs`: channel, pass).
+/// Returns the command line's channels.
+fn same_as_command_line(
+    found: &serde_json::Value,
+    engine_exr: &Path,
+    cli_exr: &Path,
+    pairs: &[(&str, &str)],
+) -> std::collections::BTreeMap<String, Vec<u32>> {
+    let argv: Vec<String> = found["command"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    ok(
+        run(
+            Command::new(&argv[0]).args(&argv[1..]),
+            "the engine's command line",
+        ),
+        "the engine's command line",
+    );
+    let engine = channel_bits(engine_exr);
+    let cli = channel_bits(cli_exr);
+    for (c, pass) in pairs {
+        let key = format!("ViewLayer.{pass}");
+        let e = engine
+            .get(&key)
+            .unwrap_or_else(|| panic!("no pass {key} in {:?}", engine.keys()));
+        // Blender's rows run bottom up in memory; files top down in both.
+        assert_eq!(e, &cli[*c], "{pass} differs from the command line's {c}");
+    }
+    cli
+}
+
 /// vdbphoton as Blender's render engine (`tools/blender/test_export/
 /// engine_render.py`, one case a process): F12 saves the image the command
 /// line renders from the exported scene, bit for bit, with the AOVs as
@@ -1039,39 +1075,21 @@ fn blender_renders_with_the_vdbphoton_engine() {
         "{console}"
     );
     assert_eq!(still["frames_line"][0], "frames = \"1\"\n", "{still}");
-    let argv: Vec<String> = still["command"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap().to_string())
-        .collect();
-    ok(
-        run(
-            Command::new(&argv[0]).args(&argv[1..]),
-            "the engine's command line",
-        ),
-        "the engine's command line",
+    let cli = same_as_command_line(
+        &still,
+        &dir.join("still/still.exr"),
+        &dir.join("still/cli.exr"),
+        &[
+            ("R", "Combined.R"),
+            ("G", "Combined.G"),
+            ("B", "Combined.B"),
+            ("A", "Combined.A"),
+            ("direct.R", "Direct.R"),
+            ("indirect.G", "Indirect.G"),
+            ("emission.B", "Emission.B"),
+            ("transmittance.Y", "Transmittance.X"),
+        ],
     );
-    let engine = channel_bits(&dir.join("still/still.exr"));
-    let cli = channel_bits(&dir.join("still/cli.exr"));
-    let pairs = [
-        ("R", "Combined.R"),
-        ("G", "Combined.G"),
-        ("B", "Combined.B"),
-        ("A", "Combined.A"),
-        ("direct.R", "Direct.R"),
-        ("indirect.G", "Indirect.G"),
-        ("emission.B", "Emission.B"),
-        ("transmittance.Y", "Transmittance.X"),
-    ];
-    for (c, pass) in pairs {
-        let key = format!("ViewLayer.{pass}");
-        let e = engine
-            .get(&key)
-            .unwrap_or_else(|| panic!("no pass {key} in {:?}", engine.keys()));
-        // Blender's rows run bottom up in memory; files top down in both.
-        assert_eq!(e, &cli[c], "{pass} differs from the command line's {c}");
-    }
     assert!(cli["R"].iter().any(|&b| b != 0));
 
     // With Denoise: Combined is the denoised image, the raw one and the
@@ -1085,34 +1103,18 @@ fn blender_renders_with_the_vdbphoton_engine() {
         _ => {
             let (dn, _) = case("denoise");
             assert_eq!(dn["saved"], true, "{dn}");
-            let argv: Vec<String> = dn["command"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|v| v.as_str().unwrap().to_string())
-                .collect();
-            ok(
-                run(
-                    Command::new(&argv[0]).args(&argv[1..]),
-                    "denoise: the command line",
-                ),
-                "denoise: the command line",
+            let cli = same_as_command_line(
+                &dn,
+                &dir.join("denoise/denoised.exr"),
+                &dir.join("denoise/cli.exr"),
+                &[
+                    ("R", "Combined.R"),
+                    ("A", "Combined.A"),
+                    ("noisy.R", "Noisy Image.R"),
+                    ("noisy.A", "Noisy Image.A"),
+                    ("albedo.G", "Denoising Albedo.G"),
+                ],
             );
-            let engine = channel_bits(&dir.join("denoise/denoised.exr"));
-            let cli = channel_bits(&dir.join("denoise/cli.exr"));
-            for (c, pass) in [
-                ("R", "Combined.R"),
-                ("A", "Combined.A"),
-                ("noisy.R", "Noisy Image.R"),
-                ("noisy.A", "Noisy Image.A"),
-                ("albedo.G", "Denoising Albedo.G"),
-            ] {
-                let key = format!("ViewLayer.{pass}");
-                let e = engine
-                    .get(&key)
-                    .unwrap_or_else(|| panic!("no pass {key} in {:?}", engine.keys()));
-                assert_eq!(e, &cli[c], "{pass} differs from the command line's {c}");
-            }
             assert_ne!(cli["R"], cli["noisy.R"], "the image was not denoised");
         }
     }

@@ -125,6 +125,24 @@ impl Drop for Cluster {
 }
 
 impl Cluster {
+    /// The cluster of `conf`, its jobs run in a fresh folder under target/
+    /// (which a real cluster's nodes see when the repository is on shared
+    /// storage), named `prefix...`.
+    fn in_new_folder(conf: PathBuf, prefix: &str) -> (tempfile::TempDir, Cluster) {
+        let tmp = tempfile::Builder::new()
+            .prefix(prefix)
+            .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
+            .unwrap();
+        let dir = tmp.path().to_path_buf();
+        let cluster = Cluster {
+            conf,
+            logs: dir.join("logs"),
+            dir,
+            jobs: Vec::new(),
+        };
+        (tmp, cluster)
+    }
+
     fn cmd(&self, program: impl AsRef<OsStr>) -> Command {
         let mut c = Command::new(program);
         c.env("SLURM_CONF", &self.conf).current_dir(&self.dir);
@@ -364,19 +382,9 @@ fn frames_and_tiles_on_slurm() {
     let Some(conf) = cluster_or_skip() else {
         return;
     };
-    // Under target/, which a real cluster's nodes see when the repository is
-    // on shared storage; jobs run in this folder (the submit folder).
-    let tmp = tempfile::Builder::new()
-        .prefix("vdbphoton-slurm")
-        .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
-        .unwrap();
+    // Jobs run in this folder (the submit folder).
+    let (tmp, mut cluster) = Cluster::in_new_folder(conf, "vdbphoton-slurm");
     let dir = tmp.path().to_path_buf();
-    let mut cluster = Cluster {
-        conf,
-        logs: dir.join("logs"),
-        dir: dir.clone(),
-        jobs: Vec::new(),
-    };
 
     // A sequence of 4 frames (frame 5 is missing on purpose).
     for f in 1..=4 {
@@ -532,17 +540,8 @@ fn a_requeued_tile_resumes_from_its_checkpoint() {
     let Some(conf) = cluster_or_skip() else {
         return;
     };
-    let tmp = tempfile::Builder::new()
-        .prefix("vdbphoton-requeue")
-        .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
-        .unwrap();
+    let (tmp, mut cluster) = Cluster::in_new_folder(conf, "vdbphoton-requeue");
     let dir = tmp.path().to_path_buf();
-    let mut cluster = Cluster {
-        conf,
-        logs: dir.join("logs"),
-        dir: dir.clone(),
-        jobs: Vec::new(),
-    };
     vdbphoton(&dir, "generate cloud f_0001.vdb --res 16 --seed 1");
     // One frame, long enough (about 3 s a tile on one CPU) to be requeued
     // in the middle.

@@ -539,6 +539,10 @@ impl Media {
     pub fn is_emissive(&self) -> bool {
         self.emission_rate > 0.0
     }
+    /// Whether light scatters in any volume ([`Volume::scatters`]).
+    pub fn scatters(&self) -> bool {
+        self.volumes.iter().any(Volume::scatters)
+    }
     /// Whether any volume moves over the shutter.
     pub fn is_moving(&self) -> bool {
         self.volumes.iter().any(|v| v.motion.is_some())

@@ -194,7 +194,7 @@ pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
 /// reference cloud at 30 s, denoised: path 4.1e-4, photon 1.25e-3;
 /// docs/performance.md, "Denoising").
 pub fn choose_integrator(world: &World, denoise: bool) -> (&'static str, &'static str) {
-    if !world.media.volumes().iter().any(|v| v.scatters()) {
+    if !world.media.scatters() {
         return (
             integrator::path::REGISTRATION.name,
             "nothing scatters light (absorption or emission only, or no density): the path tracer; photons would carry nothing",
@@ -610,9 +610,7 @@ pub fn render_scene(
             reporter.warning(w);
         }
         let mut integrator = make_integrator(desc, &world)?;
-        if integrator.name() == integrator::photon::REGISTRATION.name
-            && !world.media.volumes().iter().any(|v| v.scatters())
-        {
+        if integrator.name() == integrator::photon::REGISTRATION.name && !world.media.scatters() {
             reporter.warning(
                 "the photon integrator gains nothing here: no volume scatters light (absorption or emission only, or no density), so every photon would be traced only to be absorbed; integrator = \"path\" (or \"auto\") renders the same image without that work",
             );

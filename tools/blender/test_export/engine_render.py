@@ -83,6 +83,19 @@ def build(vdb, out_dir):
     return sc
 
 
+def render_reporting_error(sc, path, found):
+    """F12 into `path`; the error Blender's report got in `found['error']`
+    (Blender turns an engine's error report into an exception of the
+    operator when run from a script), and that Blender went on."""
+    sc.render.filepath = path
+    try:
+        bpy.ops.render.render(write_still=True)
+        found['error'] = None
+    except RuntimeError as e:
+        found['error'] = str(e)
+    found['survived'] = True
+
+
 def main(vdb, out_dir, case):
     sc = build(vdb, out_dir)
     found = {'case': case}
@@ -206,24 +219,10 @@ def main(vdb, out_dir, case):
             bpy.data.objects.remove(bpy.data.objects['Cloud'])
         else:
             bpy.data.volumes['Cloud'].filepath = os.path.join(out_dir, 'gone.vdb')
-        sc.render.filepath = os.path.join(out_dir, 'bad.exr')
-        try:
-            bpy.ops.render.render(write_still=True)
-            found['error'] = None
-        except RuntimeError as e:
-            found['error'] = str(e)
-        found['survived'] = True
+        render_reporting_error(sc, os.path.join(out_dir, 'bad.exr'), found)
     elif case in ('broken', 'missing'):
         os.environ['VDBPHOTON'] = '/bin/true' if case == 'broken' else '/nonexistent/vdbphoton'
-        sc.render.filepath = os.path.join(out_dir, 'broken.exr')
-        # Blender turns the engine's error report into an exception of the
-        # operator when run from a script.
-        try:
-            bpy.ops.render.render(write_still=True)
-            found['error'] = None
-        except RuntimeError as e:
-            found['error'] = str(e)
-        found['survived'] = True
+        render_reporting_error(sc, os.path.join(out_dir, 'broken.exr'), found)
     elif case == 'cancel':
         sc.vdbphoton.samples = 1 << 20
         sc.vdbphoton.checkpoint = 0.3
