@@ -288,6 +288,65 @@ fn fire_only_volume_glows() {
 }
 
 #[test]
+fn camera_ray_emission_through_smoke_in_front() {
+    // A scattering slab that does not glow (σa 0.25, σs 0.5, x ∈ [−4, 0])
+    // in front of an emitting one (σa 0.5, σs 0.5, emission 1 per unit
+    // length, x ∈ [0, 4]), voxels of 0.5, so that the walk's rate in the
+    // emitting slab is the emission rate (2, one collision per voxel)
+    // against σt = 1. Along +x: T = e^{−3}·e^{−4}, and the emission
+    // reaching the camera E = e^{−3}·(1 − e^{−4}). The walk of
+    // `transmittance_emission` must give both (a missing 1/λ, or T taken
+    // after a collision's own factor, miss E); the path tracer, which
+    // takes its camera ray's emission from it, must give E with no
+    // scattering followed (counting the camera ray's emission also at its
+    // own collisions would double it).
+    let slab = |x: f64| const_box("density", 1.0, DVec3::new(x, -1.0, -1.0), 0.5, IVec3::ONE);
+    let media = Media::new(vec![
+        volume(
+            slab(-4.0),
+            ExtraGrids::default(),
+            raw(0.25, 0.5, 0.0, PhaseFunction::Isotropic),
+        ),
+        volume(
+            slab(0.0),
+            ExtraGrids::default(),
+            raw(0.5, 0.5, 1.0, PhaseFunction::Isotropic),
+        ),
+    ]);
+    assert_eq!(media.emission_rate(), 2.0);
+    let (o, d) = (Vec3::new(-5.0, 0.1, -0.2), Vec3::X);
+    let want_t = (-7.0f32).exp();
+    let want_e = (-3.0f32).exp() * (1.0 - (-4.0f32).exp());
+    let n = 200_000u64;
+    let (mut st, mut se, mut se2) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..n {
+        let mut rng = Rng::new(Domain::Test, 23, 0, i);
+        let (t, e) = vdbphoton::tracking::transmittance_emission(
+            &media,
+            &Ray::new(o, d),
+            f32::INFINITY,
+            &mut rng,
+        );
+        st += t.x as f64;
+        se += e.x as f64;
+        se2 += (e.x as f64).powi(2);
+    }
+    let (mt, me) = (st / n as f64, se / n as f64);
+    let se_e = ((se2 / n as f64 - me * me) / (n as f64 - 1.0)).sqrt();
+    assert!(
+        (mt - want_t as f64).abs() < 0.05 * want_t as f64,
+        "transmittance {mt} against {want_t}"
+    );
+    assert!(
+        (me - want_e as f64).abs() <= 4.0 * se_e + 0.002 * want_e as f64,
+        "emission {me} ± {se_e} against {want_e}"
+    );
+    let w = world(media, vec![]);
+    let est = estimate(&w, o, d, 40_000, 0);
+    assert_close("emission behind smoke", est, Rgb::splat(want_e), 0.003);
+}
+
+#[test]
 fn emission_where_there_is_no_extinction() {
     // Temperature over [-1, 1]^3, absorbing smoke only in x ∈ [0, 1]
     // (Principled Color 0: σa = D·density). Seen from −x: the front half

@@ -64,10 +64,13 @@ impl Integrator for PathIntegrator {
     fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, key: SampleKey) -> SampleResult {
         let mut r = trace(world, self.max_bounces, ray, rng);
         // Alpha: ratio-tracked transmittance of the camera ray, from a
-        // stream of its own so it does not perturb the path.
-        let mut rng_t = key.rng(Domain::Alpha);
-        let tr = tracking::transmittance(&world.media, ray, f32::INFINITY, &mut rng_t);
-        r.transmittance = (tr.x + tr.y + tr.z) / 3.0;
+        // stream of its own so it does not perturb the path (in emissive
+        // media `trace` estimated it with the camera ray's emission).
+        if !world.media.is_emissive() {
+            let mut rng_t = key.rng(Domain::Alpha);
+            let tr = tracking::transmittance(&world.media, ray, f32::INFINITY, &mut rng_t);
+            r.transmittance = (tr.x + tr.y + tr.z) / 3.0;
+        }
         // The denoising albedo: a march of its own (the path's collisions
         // would give a guide as noisy as the image).
         if let Some(step) = self.albedo_step {
@@ -126,12 +129,25 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32) -> Rgb {
 }
 
 /// One camera path along `ray` (every segment at its time), with at most
-/// `max_bounces` real scattering events (`transmittance` is left at 0: see
-/// [`PathIntegrator::li`]).
+/// `max_bounces` real scattering events. In emissive media the emission
+/// along the camera ray itself comes from
+/// [`tracking::transmittance_emission`], which also gives `transmittance`;
+/// elsewhere `transmittance` is left at 0 (see [`PathIntegrator::li`]).
 pub fn trace(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> SampleResult {
     let media = &world.media;
     let time = ray.time;
     let mut res = SampleResult::default();
+    // The camera ray's emission, seen through everything in front of it
+    // by every sample: the path's own collisions would count it only up to
+    // where the path first scatters (see `transmittance_emission`). The
+    // path's collisions then add emission from its first scattering on.
+    let camera_emission = media.is_emissive();
+    if camera_emission {
+        let (tr, e) = tracking::transmittance_emission(media, ray, f32::INFINITY, rng);
+        res.l += e;
+        res.emission += e;
+        res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
+    }
     let mut beta = Rgb::ONE;
     let mut ray_o = ray.o;
     let mut ray_d = ray.d;
@@ -149,7 +165,7 @@ pub fn trace(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> Sampl
                 terminated = true;
                 return false;
             };
-            if let Some(m) = &step.medium {
+            if let Some(m) = step.medium.as_ref().filter(|_| depth > 0 || !camera_emission) {
                 if m.emission.max_element() > 0.0 {
                     let e = beta * m.emission / c.sigma_maj;
                     res.l += e;
