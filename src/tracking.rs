@@ -88,7 +88,7 @@ pub fn sample_t_maj(
     let mut budget = MAX_TENTATIVE;
     let control = media.control_albedo().is_some();
     let emission_rate = media.emission_rate();
-    media.for_each_segment(o, d, 0.0, t_max, |seg| {
+    media.for_each_segment_at(o, d, 0.0, t_max, time, |seg| {
         let rate = if seg.emission > 0.0 {
             seg.max_density.max(emission_rate)
         } else {
@@ -246,7 +246,7 @@ pub fn transmittance(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng) -> Rgb
     let mut budget = MAX_TENTATIVE;
     // Russian roulette on a small estimate; false when it ends at zero.
     let play = |tr: &mut Rgb, rng: &mut Rng| roulette(tr, TRANSMITTANCE_RR, rng);
-    media.for_each_segment(o, d, 0.0, t_max, |seg| {
+    media.for_each_segment_at(o, d, 0.0, t_max, time, |seg| {
         // The minorant is a valid control for transmittance whatever the
         // albedo or emission: only extinction matters here.
         let sigma_c = seg.min_density.min(seg.max_density);
@@ -308,7 +308,7 @@ pub fn transmittance_emission(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rn
     let mut budget = MAX_TENTATIVE;
     let emission_rate = media.emission_rate();
     let play = |tr: &mut Rgb, rng: &mut Rng| roulette(tr, TRANSMITTANCE_RR, rng);
-    media.for_each_segment(o, d, 0.0, t_max, |seg| {
+    media.for_each_segment_at(o, d, 0.0, t_max, time, |seg| {
         let emissive = seg.emission > 0.0;
         let (sigma_c, rate) = if emissive {
             (0.0, seg.max_density.max(emission_rate))

@@ -224,8 +224,22 @@ fn a_still_render_ignores_the_shutter_and_a_zero_velocity() {
 fn majorants_bound_a_moving_density_over_the_whole_shutter() {
     // A lumpy density and emission moving fast along a swirl: at any point
     // and any time within the shutter, the advected lookup must lie within
-    // the bounds the trackers sample against. Without the dilation by the
-    // motion, the bounds hold for the still volume only and this fails.
+    // the bounds the trackers sample against at that time (the time slab's,
+    // `MajorantGrid::slab`). Without the dilation by the motion, the bounds
+    // hold for the still volume only and this fails; at six times the
+    // speed (lookups move 16 voxels), a slab bounding one slab's motion
+    // too little fails too.
+    bounds_hold_for_a_swirl(1.0, Vec3::ZERO);
+    bounds_hold_for_a_swirl(6.0, Vec3::ZERO);
+    // A drift of 16 voxels along z over the half shutter: the bounds per
+    // axis are then exact, and every slab's margin counts.
+    bounds_hold_for_a_swirl(0.0, Vec3::new(0.0, 0.0, 3.2));
+}
+
+/// Checks the bounds at random points and times for the lumpy volume
+/// moving with `speed` times the swirl plus `drift` (world units per
+/// frame).
+fn bounds_hold_for_a_swirl(speed: f32, drift: Vec3) {
     let h = 0.05f64;
     let mut state = 7u64;
     let mut rnd = move || {
@@ -257,8 +271,9 @@ fn majorants_bound_a_moving_density_over_the_whole_shutter() {
         vel.masks.push([u64::MAX; 8]);
         for i in 0..512 {
             let l = Vec3::new((i >> 6) as f32, ((i >> 3) & 7) as f32, (i & 7) as f32);
-            vel.values
-                .push(Vec3::new(l.y - 3.5, 3.5 - l.x, 0.5 * l.z) * (0.05 + 0.1 * rnd()));
+            vel.values.push(
+                Vec3::new(l.y - 3.5, 3.5 - l.x, 0.5 * l.z) * (0.05 + 0.1 * rnd()) * speed + drift,
+            );
         }
     }
     let material = Material::Principled(Principled {
@@ -292,14 +307,14 @@ fn majorants_bound_a_moving_density_over_the_whole_shutter() {
     let (lo, hi) = media.bounds().unwrap();
     let mut checked = 0;
     let mut beyond_still = 0;
-    for _ in 0..400_000 {
+    for _ in 0..(400_000.0 * speed.max(4.0)) as usize {
         let p = lo + (hi - lo) * Vec3::new(rnd(), rnd(), rnd());
         let time = (rnd() - 0.5) * shutter;
         let m = media.eval(p, time);
         // The bounds at p: the segment of a short ray along x through it.
         let o = p - Vec3::X * 1e-3;
         let mut seg = None;
-        media.for_each_segment(o, Vec3::X, 0.0, 2e-3, |s| {
+        media.for_each_segment_at(o, Vec3::X, 0.0, 2e-3, time, |s| {
             if s.t0 <= 1e-3 && 1e-3 < s.t1 {
                 seg = Some(s);
             }

@@ -44,6 +44,29 @@ impl<T: GridValue> Grid<T> {
         })
     }
 
+    /// [min, max] of the voxels `lo ..= hi` exactly (outside the stored
+    /// region, the background): what lookups in a cell of a few voxels
+    /// read. [`Self::range_in_box`] answers brick by brick, so for a cell
+    /// of 2 voxels it gives the range of the whole 8^3 brick (or two);
+    /// this reads the voxels unless that range is a single value.
+    pub fn voxel_range(&self, lo: IVec3, hi: IVec3) -> [T; 2] {
+        if let Some(r) = self.range_in_box(lo, hi) {
+            if r[0] == r[1] {
+                return r;
+            }
+        }
+        let mut r = [self.get(lo); 2];
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let v = self.get(IVec3::new(x, y, z));
+                    r = [T::min(r[0], v), T::max(r[1], v)];
+                }
+            }
+        }
+        r
+    }
+
     /// [min, max] of every value that a lookup in the inclusive voxel box
     /// `lo..=hi` can read, or `None` when the box is empty. Values outside
     /// the stored region count as the background. Used to build majorants.

@@ -22,7 +22,7 @@ pub fn along(world: &World, ray: &Ray, step: f32, rng: &mut Rng) -> Rgb {
     let mut tr = Rgb::ONE;
     let mut albedo = Rgb::ZERO;
     let mut ended = false;
-    media.for_each_segment(ray.o, ray.d, 0.0, f32::INFINITY, |seg| {
+    media.for_each_segment_at(ray.o, ray.d, 0.0, f32::INFINITY, ray.time, |seg| {
         if seg.max_density <= 0.0 {
             return true;
         }

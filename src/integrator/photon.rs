@@ -645,7 +645,7 @@ impl PhotonIntegrator {
         let mut tr = Rgb::ONE;
         let mut ended = false;
         let jitter = rng.next_f32();
-        media.for_each_segment(o, d, 0.0, f32::INFINITY, |seg| {
+        media.for_each_segment_at(o, d, 0.0, f32::INFINITY, time, |seg| {
             if seg.max_density <= 0.0 && seg.emission <= 0.0 {
                 return true;
             }

@@ -186,6 +186,11 @@ impl Motion {
         )
     }
 
+    /// Frames the shutter reaches from the frame, at most, either way.
+    pub fn max_time(&self) -> f32 {
+        self.max_time
+    }
+
     /// How far (world units) a lookup may be displaced over the shutter.
     pub fn max_displacement(&self) -> f32 {
         abs_mul(self.world_per_frame, self.max_components).length() * self.max_time
