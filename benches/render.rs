@@ -54,6 +54,7 @@ fn main() {
     );
     for (label, cell, minorant) in [
         ("majorant grid (8^3 cells) with minorant", 8, true),
+        ("majorant grid (4^3 cells) with minorant", 4, true),
         ("majorant grid (8^3 cells), majorant only", 8, false),
         ("global majorant", 1 << 20, false),
     ] {

@@ -221,9 +221,11 @@ impl MajorantGrid {
         if self.slabs == 0 || max_time.is_nan() || max_time <= 0.0 {
             return 0;
         }
-        let j = (time.abs() / max_time * TIME_SLABS as f32) as usize + 1;
-        if j <= self.slabs {
-            j
+        // A time that is not finite (the whole shutter) or beyond the
+        // last slab fails the comparison.
+        let x = time.abs() / max_time * TIME_SLABS as f32;
+        if x < self.slabs as f32 {
+            x as usize + 1
         } else {
             0
         }
