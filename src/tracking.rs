@@ -241,47 +241,7 @@ pub const TRANSMITTANCE_RR: f32 = 0.1;
 /// minorant it is plain ratio tracking. Unbiased; Russian roulette when the
 /// estimate falls below 0.1.
 pub fn transmittance(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng) -> Rgb {
-    let Ray { o, d, time } = *ray;
-    let mut tr = Rgb::ONE;
-    let mut budget = MAX_TENTATIVE;
-    // Russian roulette on a small estimate; false when it ends at zero.
-    let play = |tr: &mut Rgb, rng: &mut Rng| roulette(tr, TRANSMITTANCE_RR, rng);
-    media.for_each_segment_at(o, d, 0.0, t_max, time, |seg| {
-        // The minorant is a valid control for transmittance whatever the
-        // albedo or emission: only extinction matters here.
-        let sigma_c = seg.min_density.min(seg.max_density);
-        if sigma_c > 0.0 {
-            tr *= (-sigma_c * (seg.t1 - seg.t0)).exp();
-            if !play(&mut tr, rng) {
-                return false;
-            }
-        }
-        let rate = seg.max_density - sigma_c;
-        if rate <= 0.0 {
-            return true;
-        }
-        let mut t = seg.t0;
-        loop {
-            t -= (1.0 - rng.next_f32()).ln() / rate;
-            if t >= seg.t1 {
-                return true;
-            }
-            // Out of tentative collisions (see MAX_TENTATIVE): opaque.
-            budget -= 1;
-            if budget == 0 {
-                tr = Rgb::ZERO;
-                return false;
-            }
-            count_tentative();
-            let m = media.eval(o + d * t, time);
-            let ratio = Rgb::ONE - (m.sigma_t() - Rgb::splat(sigma_c)) / rate;
-            tr *= ratio.clamp(Rgb::ZERO, Rgb::ONE);
-            if !play(&mut tr, rng) {
-                return false;
-            }
-        }
-    });
-    tr
+    ratio_walk(media, ray, t_max, rng, false).0
 }
 
 /// Transmittance along `ray` over `[0, t_max)` and the emitted radiance
@@ -302,20 +262,31 @@ pub fn transmittance(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng) -> Rgb
 /// control; emissive ones use plain ratio tracking, so that T̂ is known at
 /// each collision.
 pub fn transmittance_emission(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng) -> (Rgb, Rgb) {
+    ratio_walk(media, ray, t_max, rng, true)
+}
+
+/// The walk of [`transmittance`] (`emission` false: every segment keeps
+/// the residual control) and of [`transmittance_emission`] (emissive
+/// segments also sum the emission, without a control).
+#[inline(always)]
+fn ratio_walk(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng, emission: bool) -> (Rgb, Rgb) {
     let Ray { o, d, time } = *ray;
     let mut tr = Rgb::ONE;
     let mut emitted = Rgb::ZERO;
     let mut budget = MAX_TENTATIVE;
     let emission_rate = media.emission_rate();
+    // Russian roulette on a small estimate; false when it ends at zero.
     let play = |tr: &mut Rgb, rng: &mut Rng| roulette(tr, TRANSMITTANCE_RR, rng);
     media.for_each_segment_at(o, d, 0.0, t_max, time, |seg| {
-        let emissive = seg.emission > 0.0;
+        let emissive = emission && seg.emission > 0.0;
         let (sigma_c, rate) = if emissive {
             (0.0, seg.max_density.max(emission_rate))
         } else {
             let sigma_c = seg.min_density.min(seg.max_density);
             (sigma_c, seg.max_density - sigma_c)
         };
+        // The minorant is a valid control for transmittance whatever the
+        // albedo or emission: only extinction matters here.
         if sigma_c > 0.0 {
             tr *= (-sigma_c * (seg.t1 - seg.t0)).exp();
             if !play(&mut tr, rng) {
@@ -331,6 +302,7 @@ pub fn transmittance_emission(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rn
             if t >= seg.t1 {
                 return true;
             }
+            // Out of tentative collisions (see MAX_TENTATIVE): opaque.
             budget -= 1;
             if budget == 0 {
                 tr = Rgb::ZERO;

@@ -44,6 +44,23 @@ impl<T: GridValue> Grid<T> {
         })
     }
 
+    /// [min, max] of what trilinear lookups at index points in the cell
+    /// `[c0, c0 + cell)³` read (the voxels `c0 ..= c0 + cell`): the bounds
+    /// of a majorant cell. Exact for a brick-aligned cell of 8
+    /// ([`Self::block_lookup_range`]) and for cells of up to 4 voxels
+    /// ([`Self::voxel_range`]); larger cells take whole bricks
+    /// ([`Self::range_in_box`]), a bound.
+    pub fn cell_lookup_range(&self, c0: IVec3, cell: i32) -> [T; 2] {
+        if cell == 8 && c0 & 7 == IVec3::ZERO {
+            self.block_lookup_range(c0)
+        } else if cell <= 4 {
+            self.voxel_range(c0, c0 + cell)
+        } else {
+            self.range_in_box(c0, c0 + cell)
+                .unwrap_or([self.background; 2])
+        }
+    }
+
     /// [min, max] of the voxels `lo ..= hi` exactly (outside the stored
     /// region, the background): what lookups in a cell of a few voxels
     /// read. [`Self::range_in_box`] answers brick by brick, so for a cell

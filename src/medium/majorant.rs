@@ -415,15 +415,7 @@ fn cell_bounds(
         for y in 0..res.y {
             for x in 0..res.x {
                 let c0 = origin + IVec3::new(x, y, z) * cell;
-                let [a, b] = if cell == 8 {
-                    density.block_lookup_range(c0)
-                } else if cell <= 4 {
-                    // A moving volume's fine cells: brick-sized ranges
-                    // would make them as loose as whole bricks.
-                    density.voxel_range(c0, c0 + cell)
-                } else {
-                    density.range_in_box(c0, c0 + cell).unwrap_or([0.0, 0.0])
-                };
+                let [a, b] = density.cell_lookup_range(c0, cell);
                 range.push([a.max(0.0), b.max(0.0)]);
                 if let Some(e) = emission {
                     bound.push((e.bound)(c0, cell).max(0.0));

@@ -142,19 +142,6 @@ fn map_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (IVec3, IVec3) {
     )
 }
 
-/// [min, max] of what lookups in the cell `[c0, c0 + cell)` of `g` can
-/// return: exact for brick-aligned cells of one brick, a bound otherwise.
-fn cell_range<T: GridValue>(g: &Grid<T>, c0: IVec3, cell: i32) -> [T; 2] {
-    if cell == MAJORANT_CELL && c0 & 7 == IVec3::ZERO {
-        g.block_lookup_range(c0)
-    } else if cell <= MAJORANT_CELL / 2 {
-        // The fine cells a moving volume's bounds are dilated on.
-        g.voxel_range(c0, c0 + cell)
-    } else {
-        g.range_in_box(c0, c0 + cell).unwrap_or([g.background(); 2])
-    }
-}
-
 /// A secondary grid seen from the density's index space: the range of its
 /// lookups over a density-index cell.
 struct Secondary<'a, T: GridValue> {
@@ -166,7 +153,7 @@ struct Secondary<'a, T: GridValue> {
 impl<T: GridValue> Secondary<'_, T> {
     fn range(&self, c0: IVec3, cell: i32) -> [T; 2] {
         match self.from_density {
-            None => cell_range(self.grid, c0, cell),
+            None => self.grid.cell_lookup_range(c0, cell),
             Some(m) => {
                 let (lo, hi) = map_box(m, c0.as_dvec3(), (c0 + cell).as_dvec3());
                 self.grid
@@ -275,7 +262,7 @@ impl Volume {
             let density_ref = &density;
             let material_ref = &material;
             let bound = move |c0: IVec3, cell: i32| -> f32 {
-                let dens_hi = cell_range(density_ref, c0, cell)[1].max(0.0);
+                let dens_hi = density_ref.cell_lookup_range(c0, cell)[1].max(0.0);
                 let mut b = 0.0;
                 match material_ref {
                     Material::Raw { .. } => b += plain * dens_hi,
