@@ -12,6 +12,7 @@ use std::time::Instant;
 use vdbphoton::film::{Film, Region};
 use vdbphoton::render::{make_integrator, run_passes, Silent, Stop};
 use vdbphoton::scene::SceneDesc;
+use vdbphoton::tracking;
 use vdbphoton::world::World;
 
 fn env(name: &str, default: u32) -> u32 {
@@ -43,6 +44,35 @@ fn time(desc: &SceneDesc, spp: u32, runs: u32) -> f64 {
         best = best.min(t.elapsed().as_secs_f64());
     }
     best
+}
+
+/// Lookups and tentative collisions per sample, counted on one thread
+/// over `spp` samples per pixel.
+fn counts(desc: &SceneDesc, spp: u32) -> (f64, f64) {
+    let world = World::load(desc).unwrap();
+    let r = &desc.render;
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let c = one.install(|| {
+        let mut integrator = make_integrator(desc, &world).unwrap();
+        let mut film = Film::new(r.width, r.height, Region::full(r.width, r.height), false);
+        tracking::take_counters();
+        run_passes(
+            &world,
+            integrator.as_mut(),
+            &mut film,
+            r.seed,
+            Stop::Passes(spp),
+            &Silent,
+            |_, _, _| Ok(()),
+        )
+        .unwrap();
+        tracking::take_counters()
+    });
+    let n = (r.width * r.height * spp) as f64;
+    (c.lookups as f64 / n, c.tentative as f64 / n)
 }
 
 fn main() {
@@ -81,6 +111,10 @@ fn main() {
             "{:6}: still {ts:.2} s, blurred {tb:.2} s: {:.2}x",
             integrator,
             tb / ts
+        );
+        let ((ls, cs), (lb, cb)) = (counts(&still, 4), counts(&blurred, 4));
+        println!(
+            "        per camera sample (camera, shadow and photon work alike): lookups {ls:.1} still, {lb:.1} blurred; tentative collisions {cs:.1}, {cb:.1}"
         );
     }
 }

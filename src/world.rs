@@ -376,7 +376,7 @@ fn load_volume(
                 };
             let field = VelocityField {
                 grids,
-                max_time: open.abs().max(close.abs()),
+                shutter: (open, close),
                 per_frame,
             };
             check_motion(&f, v, &name, &density, &field)?;

@@ -58,12 +58,12 @@ pub struct MajorantGrid {
 
 /// Time slabs of a moving volume's majorant grid: besides the bounds over
 /// the whole shutter (slab 0, what [`MajorantGrid::lookup`] and the photon
-/// emitter see), bounds for lookups at times τ with |τ| within each of the
-/// first `TIME_SLABS - 1` of `TIME_SLABS` equal parts of the shutter's
-/// reach, dilated only as far as the volume can move by then. A ray at
-/// time τ walks its slab's cells. On the Blender smoke frame (a centred
-/// shutter) the trackers met 2.1 times the still frame's tentative
-/// collisions with the whole shutter's bounds.
+/// emitter see), bounds for lookups at the times of each of
+/// `TIME_SLABS - 1` equal parts of the shutter, each cell widened only as
+/// far as its neighbourhood moves over those times. A ray at time τ walks
+/// its slab's cells. On the Blender smoke frame (a centred shutter) the
+/// trackers met 2.1 times the still frame's tentative collisions with the
+/// whole shutter's bounds.
 pub const TIME_SLABS: usize = 8;
 
 /// Cells (over all slabs) beyond which a moving volume keeps the whole
@@ -79,6 +79,30 @@ pub struct EmissionBounds<'a> {
     pub bound: &'a dyn Fn(IVec3, i32) -> f32,
 }
 
+/// How far (density index units, per axis) a moving volume's lookups may
+/// be displaced over the shutter (`crate::medium::motion`).
+#[derive(Clone, Copy, Default)]
+pub struct MotionReach<'a> {
+    /// A bound for every lookup over the whole shutter: the fastest
+    /// velocity anywhere (zero for a still volume).
+    pub max: Vec3,
+    /// When the shutter opens and closes (frames from the frame): the
+    /// times of the time slabs.
+    pub shutter: (f32, f32),
+    /// The displacement per frame, `[min, max]` per axis, of the lookups
+    /// whose velocity reads lie in a cell (its lower corner and edge in
+    /// voxels): what the velocity there can return. A lookup at `p` reads
+    /// the velocity at `p` and at `p` displaced once, both within `max` of
+    /// `p`, so its displacement at time τ lies within τ times the union of
+    /// these over the cells within `max` of `p`. A smoke plume's velocity
+    /// is fast only in its core (on the Blender smoke frame the median
+    /// speed is a sixth of the largest) and points one way there (up), so
+    /// each cell's window is its own neighbourhood's motion over the slab's
+    /// times, shifted along the flow, rather than the fastest motion
+    /// anywhere both ways.
+    pub local: Option<&'a dyn Fn(IVec3, i32) -> [Vec3; 2]>,
+}
+
 impl MajorantGrid {
     /// Builds the grid over the stored region of `density`, padded by one
     /// voxel (trilinear lookups just outside it still see its values), with
@@ -89,25 +113,26 @@ impl MajorantGrid {
     /// Cells that reach outside the stored voxels see the background, which
     /// the minorant includes.
     pub fn build(density: &Grid<f32>, cell: i32) -> Option<Self> {
-        Self::build_emissive(density, cell, None, Vec3::ZERO)
+        Self::build_emissive(density, cell, None, MotionReach::default())
     }
 
     /// [`Self::build`] over the union of the density's stored voxels and the
     /// emitting voxels of `emission`, with an emission bound per cell.
     /// `None` when both are empty.
     ///
-    /// `motion` is how far (index units, per axis) a moving volume's
-    /// lookups may be displaced over the shutter (`crate::medium::motion`):
-    /// a lookup at `p` then reads the grids anywhere within that box around
-    /// `p`, so each cell's bounds are those of its neighbours within it
-    /// (a max and a min filter over the cells), and the grid reaches that
-    /// much further on every side. Zero for a still volume.
+    /// `motion` says how far (index units, per axis) a moving volume's
+    /// lookups may be displaced over the shutter: a lookup at `p` then
+    /// reads the grids anywhere within that box around `p`, so each cell's
+    /// bounds are those of its neighbours within it (a max and a min filter
+    /// over the cells), and the grid reaches `motion.max` further on every
+    /// side. Zero for a still volume.
     pub fn build_emissive(
         density: &Grid<f32>,
         cell: i32,
         emission: Option<EmissionBounds>,
-        motion: Vec3,
+        reach: MotionReach,
     ) -> Option<Self> {
+        let motion = reach.max;
         let stored = density.stored_bounds();
         let emitting = emission.as_ref().and_then(|e| e.voxels);
         let (lo, hi) = match (stored, emitting) {
@@ -170,20 +195,60 @@ impl MajorantGrid {
             let fres = res * ratio;
             let (fine_range, fine_emission) =
                 cell_bounds(density, emission.as_ref(), origin, fres, fine);
-            // The whole shutter first, then each time slab's share of the
-            // motion (see TIME_SLABS), when the cells fit the budget.
+            // Each fine cell's displacement per frame, [min, max] per
+            // axis: the union of the local ranges within the reach of its
+            // lookups' first velocity read.
+            let k = (motion / fine as f32)
+                .ceil()
+                .min(Vec3::splat(1e9))
+                .as_ivec3();
+            let local = reach.local.map(|f| {
+                let nf = fine_range.len();
+                let mut lo = [vec![0.0f32; nf], vec![0.0f32; nf], vec![0.0f32; nf]];
+                let mut hi = lo.clone();
+                let mut i = 0;
+                for z in 0..fres.z {
+                    for y in 0..fres.y {
+                        for x in 0..fres.x {
+                            let [a, b] = f(origin + IVec3::new(x, y, z) * fine, fine);
+                            for c in 0..3 {
+                                lo[c][i] = a[c];
+                                hi[c][i] = b[c];
+                            }
+                            i += 1;
+                        }
+                    }
+                }
+                for c in 0..3 {
+                    dilate(&mut lo[c], fres, k, f32::min);
+                    dilate(&mut hi[c], fres, k, f32::max);
+                }
+                (lo, hi)
+            });
+            // The whole shutter first, then each time slab (see
+            // TIME_SLABS), when the cells fit the budget.
             slabs = if n * TIME_SLABS <= SLAB_CELL_BUDGET {
                 TIME_SLABS - 1
             } else {
                 0
             };
+            let (open, close) = reach.shutter;
+            let max_time = open.abs().max(close.abs());
             let mut range = Vec::with_capacity(n * (1 + slabs));
             let mut emission = Vec::new();
             for j in 0..=slabs {
-                let share = if j == 0 {
-                    1.0
+                let (t0, t1) = if j == 0 {
+                    (open, close)
                 } else {
-                    j as f32 / TIME_SLABS as f32
+                    let w = (close - open) / slabs as f32;
+                    (open + (j - 1) as f32 * w, open + j as f32 * w)
+                };
+                // The share of the whole shutter's reach (1 when the
+                // shutter is unknown: a bound whatever the times).
+                let share = if max_time > 0.0 {
+                    (t0.abs().max(t1.abs()) / max_time).min(1.0)
+                } else {
+                    1.0
                 };
                 let (r, e) = dilated(
                     &fine_range,
@@ -191,6 +256,14 @@ impl MajorantGrid {
                     fres,
                     ratio,
                     motion * share,
+                    local
+                        .as_ref()
+                        .filter(|_| max_time > 0.0)
+                        .map(|(lo, hi)| Local {
+                            lo,
+                            hi,
+                            times: (t0, t1),
+                        }),
                     fine,
                 );
                 range.extend(r);
@@ -213,19 +286,18 @@ impl MajorantGrid {
     }
 
     /// The slab of a moving volume's lookups at `time` (frames from the
-    /// frame) when they may move as far as `max_time` reaches: slab `j` ≥ 1
-    /// bounds lookups with |τ| < j/[`TIME_SLABS`] of it, slab 0 the whole
-    /// shutter (also for a time that is not finite, or a still volume).
-    #[inline]
-    pub fn slab(&self, time: f32, max_time: f32) -> usize {
-        if self.slabs == 0 || max_time.is_nan() || max_time <= 0.0 {
+    /// frame) for a shutter open over `(open, close)`: slab `j` ≥ 1 bounds
+    /// lookups at times within the `j`-th of the [`TIME_SLABS`] − 1 equal
+    /// parts of the shutter, slab 0 the whole shutter (also for a time that
+    /// is not finite, or outside the shutter).
+    pub fn slab(&self, time: f32, (open, close): (f32, f32)) -> usize {
+        let w = close - open;
+        if self.slabs == 0 || w.is_nan() || w <= 0.0 {
             return 0;
         }
-        // A time that is not finite (the whole shutter) or beyond the
-        // last slab fails the comparison.
-        let x = time.abs() / max_time * TIME_SLABS as f32;
-        if x < self.slabs as f32 {
-            x as usize + 1
+        let x = (time - open) / w * self.slabs as f32;
+        if (0.0..=self.slabs as f32).contains(&x) {
+            (x as usize).min(self.slabs - 1) + 1
         } else {
             0
         }
@@ -429,32 +501,92 @@ fn cell_bounds(
     (range, bound)
 }
 
+/// Each fine cell's displacement per frame, `[min, max]` per axis
+/// (`lo[axis][cell]`, `hi[axis][cell]`, index units), and the times
+/// `(t0, t1)` of a time slab.
+struct Local<'a> {
+    lo: &'a [Vec<f32>; 3],
+    hi: &'a [Vec<f32>; 3],
+    times: (f32, f32),
+}
+
 /// The bounds of cells `ratio` fine cells wide from fine-cell bounds
 /// (`fres` of them, `fine` voxels each), dilated by `motion` voxels per
 /// axis: each cell then bounds every lookup displaced that far from it.
+/// With `local`, each fine cell's window is its own: the lookup at `p` and
+/// time τ reads `p − τ·s` with `s` within the cell's range, so over the
+/// slab's times the window is the cell shifted by `−τ·[min, max]`, within
+/// `motion` of it.
 fn dilated(
     fine_range: &[[f32; 2]],
     fine_emission: &[f32],
     fres: IVec3,
     ratio: i32,
     motion: Vec3,
+    local: Option<Local>,
     fine: i32,
 ) -> (Vec<[f32; 2]>, Vec<f32>) {
     // Within `k` fine cells: a displaced point lies in
     // (c0 − motion, c0 + fine + motion), and motion ≤ k·fine.
-    let k = (motion / fine as f32)
-        .ceil()
-        .min(Vec3::splat(1e9))
-        .as_ivec3();
+    let cells = |m: f32| (m / fine as f32).ceil().clamp(-1e9, 1e9) as i32;
+    let k = IVec3::new(cells(motion.x), cells(motion.y), cells(motion.z));
     let mut upper: Vec<f32> = fine_range.iter().map(|r| r[1]).collect();
     let mut lower: Vec<f32> = fine_range.iter().map(|r| r[0]).collect();
     let mut emission = fine_emission.to_vec();
     // Beyond the grid every lookup is background: 0 (densities below 0
     // count as 0).
-    dilate(&mut upper, fres, k, f32::max);
-    dilate(&mut lower, fres, k, f32::min);
-    if !emission.is_empty() {
-        dilate(&mut emission, fres, k, f32::max);
+    match local {
+        None => {
+            dilate(&mut upper, fres, k, f32::max);
+            dilate(&mut lower, fres, k, f32::min);
+            if !emission.is_empty() {
+                dilate(&mut emission, fres, k, f32::max);
+            }
+        }
+        Some(Local {
+            lo,
+            hi,
+            times: (t0, t1),
+        }) => {
+            // Window offsets in fine cells per axis: a point of the cell
+            // [c0, c0 + fine) displaced by d in [d0, d1] lies in
+            // [c0 − d1, c0 + fine − d0), the cells floor(−d1 / fine) to
+            // ceil(−d0 / fine) from it; never beyond k.
+            let n = lo[0].len();
+            let mut first = [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
+            let mut last = first.clone();
+            for a in 0..3 {
+                for i in 0..n {
+                    let (s0, s1) = (lo[a][i], hi[a][i]);
+                    let p = [t0 * s0, t0 * s1, t1 * s0, t1 * s1];
+                    let d0 = p.into_iter().fold(f32::INFINITY, f32::min);
+                    let d1 = p.into_iter().fold(f32::NEG_INFINITY, f32::max);
+                    let f = ((-d1 / fine as f32).floor().clamp(-1e9, 1e9) as i32).max(-k[a]);
+                    let l = cells(-d0).min(k[a]);
+                    first[a][i] = f.min(l) as f32;
+                    last[a][i] = l.max(f) as f32;
+                }
+            }
+            // A separable filter whose window varies: the x pass at a cell
+            // q serves every output cell p whose y and z windows hold q,
+            // all within k.y, k.z of it, so it takes the widest x window
+            // over those (and the y pass the widest y window within k.z);
+            // the z pass takes p's own.
+            dilate(&mut first[0], fres, IVec3::new(0, k.y, k.z), f32::min);
+            dilate(&mut last[0], fres, IVec3::new(0, k.y, k.z), f32::max);
+            dilate(&mut first[1], fres, IVec3::new(0, 0, k.z), f32::min);
+            dilate(&mut last[1], fres, IVec3::new(0, 0, k.z), f32::max);
+            let mut fields = vec![(&mut upper, f32::max as fn(f32, f32) -> f32)];
+            fields.push((&mut lower, f32::min));
+            if !emission.is_empty() {
+                fields.push((&mut emission, f32::max));
+            }
+            for (v, op) in fields {
+                for axis in 0..3 {
+                    filter_axis_varying(v, fres, axis, &first[axis], &last[axis], op);
+                }
+            }
+        }
     }
     let mut range: Vec<[f32; 2]> = lower.into_iter().zip(upper).map(|(a, b)| [a, b]).collect();
     if ratio > 1 {
@@ -513,6 +645,78 @@ fn dilate(v: &mut [f32], res: IVec3, k: IVec3, op: fn(f32, f32) -> f32) {
                 for (t, x) in out.iter().enumerate() {
                     v[base + t * stride] = *x;
                 }
+            }
+        }
+    }
+}
+
+/// Replaces each value of the `res` grid `v` (x fastest) by `op` over the
+/// values from `first` to `last` cells (its own, whole numbers, `first` ≤
+/// `last`) from it along `axis`, counting cells beyond the grid as 0. Each
+/// line through a sparse table (the op over each run of 2^l cells), so any
+/// window costs one query.
+fn filter_axis_varying(
+    v: &mut [f32],
+    res: IVec3,
+    axis: usize,
+    first: &[f32],
+    last: &[f32],
+    op: fn(f32, f32) -> f32,
+) {
+    let dims = [res.x as usize, res.y as usize, res.z as usize];
+    let strides = [1, dims[0], dims[0] * dims[1]];
+    let n = dims[axis];
+    let stride = strides[axis];
+    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+    // table[l][j]: op over line[j ..= j + 2^l − 1] of the line padded by
+    // n zeros on each side (a window beyond n cells sees it all anyway).
+    let m = 3 * n;
+    let ni = n as i64;
+    let mut table: Vec<Vec<f32>> = Vec::new();
+    let mut win = vec![(0usize, 0usize); n];
+    for j in 0..dims[b] {
+        for i in 0..dims[a] {
+            let base = i * strides[a] + j * strides[b];
+            let mut widest = 1;
+            let mut trivial = true;
+            for (t, w) in win.iter_mut().enumerate() {
+                let c = base + t * stride;
+                let f = (first[c] as i64).clamp(-ni, ni);
+                let l = (last[c] as i64).clamp(-ni, ni).max(f);
+                trivial &= f == 0 && l == 0;
+                let lo = (ni + t as i64 + f) as usize;
+                let hi = (ni + t as i64 + l) as usize;
+                *w = (lo, hi);
+                widest = widest.max(hi - lo + 1);
+            }
+            if trivial {
+                continue;
+            }
+            let levels = (usize::BITS - widest.leading_zeros()) as usize;
+            table.resize_with(levels.max(table.len()), Vec::new);
+            let t0 = &mut table[0];
+            t0.clear();
+            t0.resize(m, 0.0);
+            for t in 0..n {
+                t0[n + t] = v[base + t * stride];
+            }
+            for l in 1..levels {
+                let (done, rest) = table.split_at_mut(l);
+                let (prev, cur) = (&done[l - 1], &mut rest[0]);
+                let h = 1 << (l - 1);
+                cur.clear();
+                cur.extend((0..m).map(|j| {
+                    if j + h < m {
+                        op(prev[j], prev[j + h])
+                    } else {
+                        prev[j]
+                    }
+                }));
+            }
+            for (t, &(lo, hi)) in win.iter().enumerate() {
+                let l = (usize::BITS - 1 - (hi - lo + 1).leading_zeros()) as usize;
+                let row = &table[l];
+                v[base + t * stride] = op(row[lo], row[hi + 1 - (1 << l)]);
             }
         }
     }
@@ -629,6 +833,95 @@ impl Iterator for Dda<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn local_dilation_covers_each_cells_own_window() {
+        // Random bounds and random displacement ranges per cell: each
+        // cell's result must bound every cell its own lookups can reach
+        // over the slab's times (the cell displaced by −τ·s, τ in the slab,
+        // s in its range, within the global reach). The passes take the
+        // widest window of the cells they serve; with each cell's own
+        // window in every pass this fails.
+        let res = IVec3::new(9, 7, 6);
+        let n = (res.x * res.y * res.z) as usize;
+        let mut state = 3u64;
+        let mut rnd = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let range: Vec<[f32; 2]> = (0..n)
+            .map(|_| {
+                let a = rnd();
+                [a, a + rnd()]
+            })
+            .collect();
+        let emission: Vec<f32> = (0..n).map(|_| rnd()).collect();
+        // Displacement per frame, index units: up to 12 along x, 8 along y
+        // and z, mostly one way along z; the shutter reaches 0.25 frames.
+        let per_frame = Vec3::new(12.0, 8.0, 8.0);
+        let (mut lo, mut hi) = ([vec![], vec![], vec![]], [vec![], vec![], vec![]]);
+        for a in 0..3 {
+            for _ in 0..n {
+                let (u, w) = (rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0);
+                let (u, w) = if a == 2 { (u.abs(), w.abs()) } else { (u, w) };
+                lo[a].push(u.min(w) * per_frame[a]);
+                hi[a].push(u.max(w) * per_frame[a]);
+            }
+        }
+        let max_time = 0.25;
+        let motion = per_frame * max_time;
+        let idx = |p: IVec3| ((p.z * res.y + p.y) * res.x + p.x) as usize;
+        for (t0, t1) in [(-0.25, 0.25), (-0.25, -0.1), (0.05, 0.15), (0.0, 0.25)] {
+            let share = f32::max(f32::abs(t0), f32::abs(t1)) / max_time;
+            let local = Local {
+                lo: &lo,
+                hi: &hi,
+                times: (t0, t1),
+            };
+            let (r, e) = dilated(&range, &emission, res, 1, motion * share, Some(local), 1);
+            for z in 0..res.z {
+                for y in 0..res.y {
+                    for x in 0..res.x {
+                        let p = IVec3::new(x, y, z);
+                        let i = idx(p);
+                        // The reachable cells: [p − d1, p + 1 − d0) over d
+                        // in τ·[lo, hi], clipped to the global reach.
+                        let (mut f, mut l) = (IVec3::ZERO, IVec3::ZERO);
+                        for a in 0..3 {
+                            let ds = [t0 * lo[a][i], t0 * hi[a][i], t1 * lo[a][i], t1 * hi[a][i]];
+                            let d0 = ds.iter().copied().fold(f32::INFINITY, f32::min);
+                            let d1 = ds.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+                            let k = (motion[a] * share).ceil() as i32;
+                            f[a] = ((-d1).floor() as i32).max(-k);
+                            l[a] = ((-d0).ceil() as i32).min(k);
+                        }
+                        let (mut want_lo, mut want_hi, mut want_e) =
+                            (f32::INFINITY, 0.0f32, 0.0f32);
+                        for dz in f.z..=l.z {
+                            for dy in f.y..=l.y {
+                                for dx in f.x..=l.x {
+                                    let q = p + IVec3::new(dx, dy, dz);
+                                    if q.cmplt(IVec3::ZERO).any() || q.cmpge(res).any() {
+                                        want_lo = want_lo.min(0.0);
+                                        continue;
+                                    }
+                                    want_lo = want_lo.min(range[idx(q)][0]);
+                                    want_hi = want_hi.max(range[idx(q)][1]);
+                                    want_e = want_e.max(emission[idx(q)]);
+                                }
+                            }
+                        }
+                        assert!(
+                            r[i][1] >= want_hi && r[i][0] <= want_lo && e[i] >= want_e,
+                            "{p} times {t0}..{t1}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn dilation_is_the_max_and_min_over_the_window() {

@@ -20,8 +20,8 @@ pub mod principled;
 use crate::grid::{Grid, GridValue};
 use crate::phase::PhaseFunction;
 use crate::Rgb;
-use glam::{Affine3A, DAffine3, DVec3, IVec3, Vec3};
-pub use majorant::{EmissionBounds, MajorantGrid, Segment};
+use glam::{Affine3A, DAffine3, DVec3, IVec3, Mat3, Vec3};
+pub use majorant::{EmissionBounds, MajorantGrid, MotionReach, Segment};
 pub use motion::{Motion, VelocityField, VelocityGrids};
 pub use principled::{BlackbodyFilter, Material, Principled, Temperature};
 
@@ -142,6 +142,51 @@ fn map_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (IVec3, IVec3) {
     )
 }
 
+/// For a moving volume, the displacement per frame (density index units,
+/// `[min, max]` per axis) of lookups whose velocity reads lie in a
+/// density-index cell: what the velocity there can return
+/// ([`MotionReach::local`]).
+fn local_displacement(
+    m: &Motion,
+    index_from_world: Affine3A,
+) -> impl Fn(IVec3, i32) -> [Vec3; 2] + '_ {
+    let to_index = Mat3::from(index_from_world.matrix3);
+    // The velocity grids' index space from the density's, when they differ.
+    let from_density = (m.index_from_world() != index_from_world).then(|| {
+        let a = m.index_from_world() * index_from_world.inverse();
+        DAffine3::from_mat3_translation(
+            Mat3::from(a.matrix3).as_dmat3(),
+            Vec3::from(a.translation).as_dvec3(),
+        )
+    });
+    move |c0: IVec3, cell: i32| {
+        let v = match from_density {
+            None => m.grids().cell_range(c0, cell),
+            Some(f) => {
+                let (lo, hi) = map_box(f, c0.as_dvec3(), (c0 + cell).as_dvec3());
+                m.grids().box_range(lo, hi)
+            }
+        };
+        m.index_velocity_range(to_index, v)
+    }
+}
+
+/// The [`MotionReach`] of a volume (`pad`: its bound anywhere over the
+/// whole shutter).
+fn motion_reach<'a>(
+    motion: Option<&Motion>,
+    pad: Vec3,
+    local: &'a Option<impl Fn(IVec3, i32) -> [Vec3; 2] + 'a>,
+) -> MotionReach<'a> {
+    MotionReach {
+        max: pad,
+        shutter: motion.map_or((0.0, 0.0), |m| m.shutter()),
+        local: local
+            .as_ref()
+            .map(|f| f as &dyn Fn(IVec3, i32) -> [Vec3; 2]),
+    }
+}
+
 /// A secondary grid seen from the density's index space: the range of its
 /// lookups over a density-index cell.
 struct Secondary<'a, T: GridValue> {
@@ -228,6 +273,9 @@ impl Volume {
         } else {
             MAJORANT_CELL
         };
+        let local = motion
+            .as_ref()
+            .map(|m| local_displacement(m, index_from_world));
         let majorant = if material.is_emissive() {
             fn view(g: &Option<Grid<f32>>, dwfi: DAffine3) -> Option<Secondary<'_, f32>> {
                 g.as_ref().map(|g| Secondary {
@@ -297,11 +345,17 @@ impl Volume {
                     voxels,
                     bound: &bound,
                 }),
-                motion_pad,
+                motion_reach(motion.as_ref(), motion_pad, &local),
             )?
         } else {
-            MajorantGrid::build_emissive(&density, cell, None, motion_pad)?
+            MajorantGrid::build_emissive(
+                &density,
+                cell,
+                None,
+                motion_reach(motion.as_ref(), motion_pad, &local),
+            )?
         };
+        drop(local);
         // World bounds: the eight corners of the majorant box.
         let (lo, hi) = majorant.bounds();
         let mut wlo = Vec3::splat(f32::INFINITY);
@@ -360,7 +414,7 @@ impl Volume {
     #[inline]
     fn slab(&self, time: f32) -> usize {
         match &self.motion {
-            Some(m) => self.majorant.slab(time, m.max_time()),
+            Some(m) => self.majorant.slab(time, m.shutter()),
             None => 0,
         }
     }
@@ -374,9 +428,12 @@ impl Volume {
     /// `minorant` is false. For benchmarks and tests of non-emissive
     /// volumes (the emission bounds are dropped).
     pub fn set_majorant_cell(&mut self, cell: i32, minorant: bool) {
-        if let Some(mut m) =
-            MajorantGrid::build_emissive(&self.density, cell.max(1), None, self.motion_pad)
-        {
+        let local = self
+            .motion
+            .as_ref()
+            .map(|m| local_displacement(m, self.index_from_world));
+        let reach = motion_reach(self.motion.as_ref(), self.motion_pad, &local);
+        if let Some(mut m) = MajorantGrid::build_emissive(&self.density, cell.max(1), None, reach) {
             if !minorant {
                 m.clear_minorant();
             }

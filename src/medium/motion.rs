@@ -21,7 +21,7 @@
 //! `vel.y`, `vel.z`) on one transform.
 
 use crate::grid::Grid;
-use glam::{Affine3A, DAffine3, Mat3, Vec3};
+use glam::{Affine3A, DAffine3, IVec3, Mat3, Vec3};
 
 /// |M|·v with |M| the matrix of |entries|: per component, the bound of
 /// M·w over every w with |w_j| ≤ v_j.
@@ -74,6 +74,32 @@ impl VelocityGrids {
         }
     }
 
+    /// [min, max] of each component that lookups in the index cell
+    /// `[c0, c0 + cell)³` read ([`Grid::cell_lookup_range`]).
+    pub fn cell_range(&self, c0: IVec3, cell: i32) -> [Vec3; 2] {
+        match self {
+            VelocityGrids::Vector(g) => g.cell_lookup_range(c0, cell),
+            VelocityGrids::Split(gs) => {
+                let r = gs.each_ref().map(|g| g.cell_lookup_range(c0, cell));
+                [Vec3::from(r.map(|r| r[0])), Vec3::from(r.map(|r| r[1]))]
+            }
+        }
+    }
+
+    /// [`Self::cell_range`] for lookups in the inclusive index box
+    /// `lo..=hi` (whole bricks: a bound).
+    pub fn box_range(&self, lo: IVec3, hi: IVec3) -> [Vec3; 2] {
+        match self {
+            VelocityGrids::Vector(g) => g.range_in_box(lo, hi).unwrap_or([g.background(); 2]),
+            VelocityGrids::Split(gs) => {
+                let r = gs
+                    .each_ref()
+                    .map(|g| g.range_in_box(lo, hi).unwrap_or([g.background(); 2]));
+                [Vec3::from(r.map(|r| r[0])), Vec3::from(r.map(|r| r[1]))]
+            }
+        }
+    }
+
     #[inline(always)]
     fn sample_index(&self, q: Vec3) -> Vec3 {
         match self {
@@ -93,10 +119,10 @@ impl VelocityGrids {
 #[derive(Debug, Clone)]
 pub struct VelocityField {
     pub grids: VelocityGrids,
-    /// Frames the shutter reaches from the frame, at most, either way
-    /// (half the shutter when centred on the frame, all of it at its start
-    /// or end): how far in time lookups may be advected.
-    pub max_time: f32,
+    /// When the shutter opens and closes, in frames from the frame
+    /// (`(-0.25, 0.25)` for Blender's default, centred on the frame): the
+    /// times lookups may be advected to.
+    pub shutter: (f32, f32),
     /// Displacement per frame of a unit grid vector along each of the
     /// grid's axes, in the file's world units (`velocity_scale`, divided
     /// by the frame rate for velocities per second).
@@ -117,6 +143,7 @@ pub struct Motion {
     index_per_frame: Mat3,
     /// The largest magnitude of each grid component.
     max_components: Vec3,
+    shutter: (f32, f32),
     max_time: f32,
 }
 
@@ -128,7 +155,9 @@ impl Motion {
         let world_per_frame = transform.matrix3.as_mat3() * Mat3::from_diagonal(field.per_frame);
         let max_components = field.grids.max_components();
         let speed = abs_mul(world_per_frame, max_components).length();
-        if !(speed > 0.0 && field.max_time > 0.0) {
+        let (open, close) = field.shutter;
+        let max_time = open.abs().max(close.abs());
+        if !(speed > 0.0 && max_time > 0.0) {
             return None;
         }
         let wfi = transform * field.grids.world_from_index();
@@ -142,7 +171,8 @@ impl Motion {
             index_per_frame: ifw.matrix3.as_mat3() * world_per_frame,
             world_per_frame,
             max_components,
-            max_time: field.max_time,
+            shutter: field.shutter,
+            max_time,
         })
     }
 
@@ -191,6 +221,11 @@ impl Motion {
         self.max_time
     }
 
+    /// When the shutter opens and closes, in frames from the frame.
+    pub fn shutter(&self) -> (f32, f32) {
+        self.shutter
+    }
+
     /// How far (world units) a lookup may be displaced over the shutter.
     pub fn max_displacement(&self) -> f32 {
         abs_mul(self.world_per_frame, self.max_components).length() * self.max_time
@@ -202,6 +237,25 @@ impl Motion {
     /// max|τ| · Σ_j |(A·W)_aj| · max|v_j|.
     pub fn index_displacement(&self, index_from_world: Mat3) -> Vec3 {
         abs_mul(index_from_world * self.world_per_frame, self.max_components) * self.max_time
+    }
+
+    /// The displacement per frame, `[min, max]` along each axis of the
+    /// index space `index_from_world` maps world vectors into, of lookups
+    /// whose velocity reads return components within `[lo, hi]`: interval
+    /// arithmetic on A·W·v.
+    pub fn index_velocity_range(&self, index_from_world: Mat3, [lo, hi]: [Vec3; 2]) -> [Vec3; 2] {
+        let m = (index_from_world * self.world_per_frame).transpose();
+        let row = |r: Vec3| {
+            let (a, b) = (r * lo, r * hi);
+            (a.min(b).element_sum(), a.max(b).element_sum())
+        };
+        let (x, y, z) = (row(m.x_axis), row(m.y_axis), row(m.z_axis));
+        [Vec3::new(x.0, y.0, z.0), Vec3::new(x.1, y.1, z.1)]
+    }
+
+    /// The velocity grids.
+    pub fn grids(&self) -> &VelocityGrids {
+        &self.grids
     }
 
     /// Bytes the velocity grids take.
