@@ -29,9 +29,14 @@ cargo build --release --locked
 # Intel Open Image Denoise 2.x for --denoise (not packaged in Debian 12):
 # PyPI's pyoidn wheel carries its libraries; vdbphoton finds them in
 # target/venv-oidn. Optional: without it everything but --denoise works.
-bash scripts/install_oidn.sh || echo "warning: Open Image Denoise was not installed; --denoise will say how to get it" >&2
+# The default scene is rendered denoised when the library is there.
+denoise=--denoise
+if ! bash scripts/install_oidn.sh; then
+    echo "warning: Open Image Denoise was not installed; --denoise will say how to get it, and the default scene renders without it" >&2
+    denoise=
+fi
 
 mkdir -p out
 echo "== rendering the default scene"
-./target/release/vdbphoton render scenes/cloud.toml -o out/cloud.exr --preview out/cloud.png
+./target/release/vdbphoton render scenes/cloud.toml $denoise -o out/cloud.exr --preview out/cloud.png
 echo "== done: out/cloud.exr (linear float RGBA) and out/cloud.png (sRGB preview)"
