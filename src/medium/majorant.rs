@@ -24,6 +24,7 @@
 
 use crate::grid::Grid;
 use glam::{IVec3, Vec3};
+use rayon::prelude::*;
 
 /// The cells a majorant grid may have: this many (12 bytes each with
 /// emission, 48 MiB; cells of 8 voxels over a 1,290³-voxel extent), or two
@@ -100,7 +101,7 @@ pub struct MotionReach<'a> {
     /// each cell's window is its own neighbourhood's motion over the slab's
     /// times, shifted along the flow, rather than the fastest motion
     /// anywhere both ways.
-    pub local: Option<&'a dyn Fn(IVec3, i32) -> [Vec3; 2]>,
+    pub local: Option<&'a (dyn Fn(IVec3, i32) -> [Vec3; 2] + Sync)>,
 }
 
 impl MajorantGrid {
@@ -195,34 +196,43 @@ impl MajorantGrid {
             let fres = res * ratio;
             let (fine_range, fine_emission) =
                 cell_bounds(density, emission.as_ref(), origin, fres, fine);
-            // Each fine cell's displacement per frame, [min, max] per
-            // axis: the union of the local ranges within the reach of its
-            // lookups' first velocity read.
+            // Each cell's displacement per frame, [min, max] per axis: the
+            // union of the local ranges within the reach of its lookups'
+            // first velocity read, taken on the fine cells (a reach of 4.6
+            // voxels then widens a cell by 5 voxels, not by two cells of
+            // 4), then gathered into the cells: the per-slab filters below
+            // work on cells, ratio³ times fewer (per fine cell they took
+            // most of the load time of a 256³ moving volume).
             let k = (motion / fine as f32)
                 .ceil()
                 .min(Vec3::splat(1e9))
                 .as_ivec3();
             let local = reach.local.map(|f| {
-                let nf = fine_range.len();
-                let mut lo = [vec![0.0f32; nf], vec![0.0f32; nf], vec![0.0f32; nf]];
-                let mut hi = lo.clone();
-                let mut i = 0;
-                for z in 0..fres.z {
-                    for y in 0..fres.y {
-                        for x in 0..fres.x {
-                            let [a, b] = f(origin + IVec3::new(x, y, z) * fine, fine);
-                            for c in 0..3 {
-                                lo[c][i] = a[c];
-                                hi[c][i] = b[c];
+                // Slice by slice in parallel: reading the velocity voxels of
+                // every fine cell is the costly part.
+                let slices: Vec<Vec<[Vec3; 2]>> = (0..fres.z)
+                    .into_par_iter()
+                    .map(|z| {
+                        let mut out = Vec::with_capacity((fres.x * fres.y) as usize);
+                        for y in 0..fres.y {
+                            for x in 0..fres.x {
+                                out.push(f(origin + IVec3::new(x, y, z) * fine, fine));
                             }
-                            i += 1;
                         }
-                    }
-                }
-                for c in 0..3 {
-                    dilate(&mut lo[c], fres, k, f32::min);
-                    dilate(&mut hi[c], fres, k, f32::max);
-                }
+                        out
+                    })
+                    .collect();
+                let ranges = || slices.iter().flatten();
+                let lo = [0, 1, 2].map(|c| ranges().map(|r| r[0][c]).collect::<Vec<f32>>());
+                let hi = [0, 1, 2].map(|c| ranges().map(|r| r[1][c]).collect::<Vec<f32>>());
+                let lo = lo.map(|mut v| {
+                    dilate(&mut v, fres, k, f32::min);
+                    gather(&v, fres, ratio, f32::INFINITY, f32::min)
+                });
+                let hi = hi.map(|mut v| {
+                    dilate(&mut v, fres, k, f32::max);
+                    gather(&v, fres, ratio, f32::NEG_INFINITY, f32::max)
+                });
                 (lo, hi)
             });
             // The whole shutter first, then each time slab (see
@@ -234,38 +244,43 @@ impl MajorantGrid {
             };
             let (open, close) = reach.shutter;
             let max_time = open.abs().max(close.abs());
+            let parts: Vec<(Vec<[f32; 2]>, Vec<f32>)> = (0..=slabs)
+                .into_par_iter()
+                .map(|j| {
+                    let (t0, t1) = if j == 0 {
+                        (open, close)
+                    } else {
+                        let w = (close - open) / slabs as f32;
+                        (open + (j - 1) as f32 * w, open + j as f32 * w)
+                    };
+                    // The share of the whole shutter's reach (1 when the
+                    // shutter is unknown: a bound whatever the times).
+                    let share = if max_time > 0.0 {
+                        (t0.abs().max(t1.abs()) / max_time).min(1.0)
+                    } else {
+                        1.0
+                    };
+                    dilated(
+                        &fine_range,
+                        &fine_emission,
+                        fres,
+                        ratio,
+                        motion * share,
+                        local
+                            .as_ref()
+                            .filter(|_| max_time > 0.0)
+                            .map(|(lo, hi)| Local {
+                                lo,
+                                hi,
+                                times: (t0, t1),
+                            }),
+                        fine,
+                    )
+                })
+                .collect();
             let mut range = Vec::with_capacity(n * (1 + slabs));
             let mut emission = Vec::new();
-            for j in 0..=slabs {
-                let (t0, t1) = if j == 0 {
-                    (open, close)
-                } else {
-                    let w = (close - open) / slabs as f32;
-                    (open + (j - 1) as f32 * w, open + j as f32 * w)
-                };
-                // The share of the whole shutter's reach (1 when the
-                // shutter is unknown: a bound whatever the times).
-                let share = if max_time > 0.0 {
-                    (t0.abs().max(t1.abs()) / max_time).min(1.0)
-                } else {
-                    1.0
-                };
-                let (r, e) = dilated(
-                    &fine_range,
-                    &fine_emission,
-                    fres,
-                    ratio,
-                    motion * share,
-                    local
-                        .as_ref()
-                        .filter(|_| max_time > 0.0)
-                        .map(|(lo, hi)| Local {
-                            lo,
-                            hi,
-                            times: (t0, t1),
-                        }),
-                    fine,
-                );
+            for (r, e) in parts {
                 range.extend(r);
                 emission.extend(e);
             }
@@ -501,9 +516,9 @@ fn cell_bounds(
     (range, bound)
 }
 
-/// Each fine cell's displacement per frame, `[min, max]` per axis
-/// (`lo[axis][cell]`, `hi[axis][cell]`, index units), and the times
-/// `(t0, t1)` of a time slab.
+/// Each cell's displacement per frame, `[min, max]` per axis
+/// (`lo[axis][cell]`, `hi[axis][cell]`, index units), on the grid of cells
+/// `ratio` fine cells wide, and the times `(t0, t1)` of a time slab.
 struct Local<'a> {
     lo: &'a [Vec<f32>; 3],
     hi: &'a [Vec<f32>; 3],
@@ -548,10 +563,12 @@ fn dilated(
             hi,
             times: (t0, t1),
         }) => {
-            // Window offsets in fine cells per axis: a point of the cell
-            // [c0, c0 + fine) displaced by d in [d0, d1] lies in
+            // Window offsets in fine cells per axis: a point of a fine
+            // cell [c0, c0 + fine) displaced by d in [d0, d1] lies in
             // [c0 − d1, c0 + fine − d0), the cells floor(−d1 / fine) to
-            // ceil(−d0 / fine) from it; never beyond k.
+            // ceil(−d0 / fine) from it; never beyond k. Each fine cell
+            // takes its cell's range.
+            let res = fres / ratio;
             let n = lo[0].len();
             let mut first = [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
             let mut last = first.clone();
@@ -569,21 +586,42 @@ fn dilated(
             }
             // A separable filter whose window varies: the x pass at a cell
             // q serves every output cell p whose y and z windows hold q,
-            // all within k.y, k.z of it, so it takes the widest x window
-            // over those (and the y pass the widest y window within k.z);
-            // the z pass takes p's own.
-            dilate(&mut first[0], fres, IVec3::new(0, k.y, k.z), f32::min);
-            dilate(&mut last[0], fres, IVec3::new(0, k.y, k.z), f32::max);
-            dilate(&mut first[1], fres, IVec3::new(0, 0, k.z), f32::min);
-            dilate(&mut last[1], fres, IVec3::new(0, 0, k.z), f32::max);
-            let mut fields = vec![(&mut upper, f32::max as fn(f32, f32) -> f32)];
-            fields.push((&mut lower, f32::min));
-            if !emission.is_empty() {
-                fields.push((&mut emission, f32::max));
-            }
-            for (v, op) in fields {
-                for axis in 0..3 {
-                    filter_axis_varying(v, fres, axis, &first[axis], &last[axis], op);
+            // all within k.y, k.z fine cells of it (so within
+            // ceil(k / ratio) cells), so it takes the widest x window over
+            // those (and the y pass the widest y window within k.z); the z
+            // pass takes p's own.
+            let kc = IVec3::new(
+                (k.x + ratio - 1) / ratio,
+                (k.y + ratio - 1) / ratio,
+                (k.z + ratio - 1) / ratio,
+            );
+            dilate(&mut first[0], res, IVec3::new(0, kc.y, kc.z), f32::min);
+            dilate(&mut last[0], res, IVec3::new(0, kc.y, kc.z), f32::max);
+            dilate(&mut first[1], res, IVec3::new(0, 0, kc.z), f32::min);
+            dilate(&mut last[1], res, IVec3::new(0, 0, kc.z), f32::max);
+            let fine_of = |v: &Vec<f32>| -> Vec<f32> {
+                if ratio == 1 {
+                    return v.clone();
+                }
+                let r = ratio as usize;
+                let mut out = Vec::with_capacity(fine_range.len());
+                for z in 0..fres.z as usize {
+                    for y in 0..fres.y as usize {
+                        let row = ((z / r) * res.y as usize + y / r) * res.x as usize;
+                        let cells = &v[row..row + res.x as usize];
+                        out.extend(cells.iter().flat_map(|&c| std::iter::repeat_n(c, r)));
+                    }
+                }
+                out
+            };
+            let first = first.each_ref().map(fine_of);
+            let last = last.each_ref().map(fine_of);
+            for axis in 0..3 {
+                let (f, l) = (&first[axis], &last[axis]);
+                filter_axis_varying(&mut upper, fres, axis, f, l, f32::max);
+                filter_axis_varying(&mut lower, fres, axis, f, l, f32::min);
+                if !emission.is_empty() {
+                    filter_axis_varying(&mut emission, fres, axis, f, l, f32::max);
                 }
             }
         }
@@ -605,12 +643,15 @@ fn dilated(
 fn gather<T: Copy>(v: &[T], res: IVec3, ratio: i32, init: T, op: impl Fn(T, T) -> T) -> Vec<T> {
     let c = res / ratio;
     let mut out = vec![init; (c.x as usize) * (c.y as usize) * (c.z as usize)];
-    for z in 0..res.z {
-        for y in 0..res.y {
-            for x in 0..res.x {
-                let o = (((z / ratio) * c.y + y / ratio) * c.x + x / ratio) as usize;
-                out[o] = op(out[o], v[((z * res.y + y) * res.x + x) as usize]);
-            }
+    let (nx, r) = (res.x as usize, ratio as usize);
+    let cells = nx * res.y as usize * res.z as usize;
+    for (row, src) in v[..cells].chunks_exact(nx).enumerate() {
+        let (y, z) = (row % res.y as usize, row / res.y as usize);
+        let base = ((z / r) * c.y as usize + y / r) * c.x as usize;
+        let dst = &mut out[base..base + c.x as usize];
+        for (x, &s) in src.iter().enumerate() {
+            let o = &mut dst[x / r];
+            *o = op(*o, s);
         }
     }
     out
@@ -620,7 +661,7 @@ fn gather<T: Copy>(v: &[T], res: IVec3, ratio: i32, init: T, op: impl Fn(T, T) -
 /// values within `k` cells along each axis, counting cells beyond the grid
 /// as 0: a separable max (or min) filter, each line by van Herk and
 /// Gil-Werman's algorithm (three `op`s a cell whatever `k`).
-fn dilate(v: &mut [f32], res: IVec3, k: IVec3, op: fn(f32, f32) -> f32) {
+fn dilate(v: &mut [f32], res: IVec3, k: IVec3, op: impl Fn(f32, f32) -> f32 + Copy) {
     let dims = [res.x as usize, res.y as usize, res.z as usize];
     let strides = [1, dims[0], dims[0] * dims[1]];
     for axis in 0..3 {
@@ -661,7 +702,7 @@ fn filter_axis_varying(
     axis: usize,
     first: &[f32],
     last: &[f32],
-    op: fn(f32, f32) -> f32,
+    op: impl Fn(f32, f32) -> f32 + Copy,
 ) {
     let dims = [res.x as usize, res.y as usize, res.z as usize];
     let strides = [1, dims[0], dims[0] * dims[1]];
@@ -669,28 +710,33 @@ fn filter_axis_varying(
     let stride = strides[axis];
     let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
     // table[l][j]: op over line[j ..= j + 2^l − 1] of the line padded by
-    // n zeros on each side (a window beyond n cells sees it all anyway).
-    let m = 3 * n;
+    // `pad` zeros on each side, as far as its windows reach (at most n: a
+    // window beyond n cells sees the whole line anyway).
     let ni = n as i64;
     let mut table: Vec<Vec<f32>> = Vec::new();
+    let mut offsets = vec![(0i64, 0i64); n];
     let mut win = vec![(0usize, 0usize); n];
     for j in 0..dims[b] {
         for i in 0..dims[a] {
             let base = i * strides[a] + j * strides[b];
-            let mut widest = 1;
-            let mut trivial = true;
-            for (t, w) in win.iter_mut().enumerate() {
+            let mut pad = 0;
+            for (t, o) in offsets.iter_mut().enumerate() {
                 let c = base + t * stride;
                 let f = (first[c] as i64).clamp(-ni, ni);
                 let l = (last[c] as i64).clamp(-ni, ni).max(f);
-                trivial &= f == 0 && l == 0;
-                let lo = (ni + t as i64 + f) as usize;
-                let hi = (ni + t as i64 + l) as usize;
+                *o = (f, l);
+                pad = pad.max(f.abs()).max(l.abs());
+            }
+            if pad == 0 {
+                continue;
+            }
+            let m = n + 2 * pad as usize;
+            let mut widest = 1;
+            for (t, (w, &(f, l))) in win.iter_mut().zip(&offsets).enumerate() {
+                let lo = (pad + t as i64 + f) as usize;
+                let hi = (pad + t as i64 + l) as usize;
                 *w = (lo, hi);
                 widest = widest.max(hi - lo + 1);
-            }
-            if trivial {
-                continue;
             }
             let levels = (usize::BITS - widest.leading_zeros()) as usize;
             table.resize_with(levels.max(table.len()), Vec::new);
@@ -698,7 +744,7 @@ fn filter_axis_varying(
             t0.clear();
             t0.resize(m, 0.0);
             for t in 0..n {
-                t0[n + t] = v[base + t * stride];
+                t0[pad as usize + t] = v[base + t * stride];
             }
             for l in 1..levels {
                 let (done, rest) = table.split_at_mut(l);
@@ -727,7 +773,7 @@ fn filter_axis_varying(
 fn filter_line(
     src: &[f32],
     r: usize,
-    op: fn(f32, f32) -> f32,
+    op: impl Fn(f32, f32) -> f32,
     g: &mut [f32],
     h: &mut [f32],
     out: &mut [f32],
@@ -842,9 +888,20 @@ mod tests {
         // s in its range, within the global reach). The passes take the
         // widest window of the cells they serve; with each cell's own
         // window in every pass this fails.
-        let res = IVec3::new(9, 7, 6);
+        // On fine cells (the bounds) of cells `ratio` fine cells wide (the
+        // displacement ranges), as `build_emissive` calls it.
+        for seed in 1..40 {
+            for ratio in [1, 2] {
+                local_dilation_case(IVec3::new(10, 8, 6), ratio, seed);
+            }
+        }
+    }
+
+    fn local_dilation_case(res: IVec3, ratio: i32, seed: u64) {
         let n = (res.x * res.y * res.z) as usize;
-        let mut state = 3u64;
+        let cres = res / ratio;
+        let nc = (cres.x * cres.y * cres.z) as usize;
+        let mut state = seed;
         let mut rnd = move || {
             state = state
                 .wrapping_mul(6364136223846793005)
@@ -858,12 +915,13 @@ mod tests {
             })
             .collect();
         let emission: Vec<f32> = (0..n).map(|_| rnd()).collect();
-        // Displacement per frame, index units: up to 12 along x, 8 along y
-        // and z, mostly one way along z; the shutter reaches 0.25 frames.
-        let per_frame = Vec3::new(12.0, 8.0, 8.0);
+        // Displacement per frame, index units: up to 12 along each axis
+        // (3 fine cells over the shutter's reach of 0.25 frames, not a
+        // multiple of the ratio 2), one way along z.
+        let per_frame = Vec3::new(12.0, 12.0, 12.0);
         let (mut lo, mut hi) = ([vec![], vec![], vec![]], [vec![], vec![], vec![]]);
         for a in 0..3 {
-            for _ in 0..n {
+            for _ in 0..nc {
                 let (u, w) = (rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0);
                 let (u, w) = if a == 2 { (u.abs(), w.abs()) } else { (u, w) };
                 lo[a].push(u.min(w) * per_frame[a]);
@@ -873,6 +931,10 @@ mod tests {
         let max_time = 0.25;
         let motion = per_frame * max_time;
         let idx = |p: IVec3| ((p.z * res.y + p.y) * res.x + p.x) as usize;
+        let cidx = |p: IVec3| {
+            let c = p / ratio;
+            ((c.z * cres.y + c.y) * cres.x + c.x) as usize
+        };
         for (t0, t1) in [(-0.25, 0.25), (-0.25, -0.1), (0.05, 0.15), (0.0, 0.25)] {
             let share = f32::max(f32::abs(t0), f32::abs(t1)) / max_time;
             let local = Local {
@@ -880,17 +942,32 @@ mod tests {
                 hi: &hi,
                 times: (t0, t1),
             };
-            let (r, e) = dilated(&range, &emission, res, 1, motion * share, Some(local), 1);
+            let (r, e) = dilated(
+                &range,
+                &emission,
+                res,
+                ratio,
+                motion * share,
+                Some(local),
+                1,
+            );
+            assert_eq!(r.len(), nc);
             for z in 0..res.z {
                 for y in 0..res.y {
                     for x in 0..res.x {
                         let p = IVec3::new(x, y, z);
-                        let i = idx(p);
+                        let ci = cidx(p);
                         // The reachable cells: [p − d1, p + 1 − d0) over d
-                        // in τ·[lo, hi], clipped to the global reach.
+                        // in τ·[lo, hi] of p's cell, clipped to the global
+                        // reach.
                         let (mut f, mut l) = (IVec3::ZERO, IVec3::ZERO);
                         for a in 0..3 {
-                            let ds = [t0 * lo[a][i], t0 * hi[a][i], t1 * lo[a][i], t1 * hi[a][i]];
+                            let ds = [
+                                t0 * lo[a][ci],
+                                t0 * hi[a][ci],
+                                t1 * lo[a][ci],
+                                t1 * hi[a][ci],
+                            ];
                             let d0 = ds.iter().copied().fold(f32::INFINITY, f32::min);
                             let d1 = ds.iter().copied().fold(f32::NEG_INFINITY, f32::max);
                             let k = (motion[a] * share).ceil() as i32;
@@ -914,8 +991,8 @@ mod tests {
                             }
                         }
                         assert!(
-                            r[i][1] >= want_hi && r[i][0] <= want_lo && e[i] >= want_e,
-                            "{p} times {t0}..{t1}"
+                            r[ci][1] >= want_hi && r[ci][0] <= want_lo && e[ci] >= want_e,
+                            "{p} ratio {ratio} times {t0}..{t1} seed {seed}"
                         );
                     }
                 }

@@ -149,7 +149,7 @@ fn map_box(m: DAffine3, lo: DVec3, hi: DVec3) -> (IVec3, IVec3) {
 fn local_displacement(
     m: &Motion,
     index_from_world: Affine3A,
-) -> impl Fn(IVec3, i32) -> [Vec3; 2] + '_ {
+) -> impl Fn(IVec3, i32) -> [Vec3; 2] + Sync + '_ {
     let to_index = Mat3::from(index_from_world.matrix3);
     // The velocity grids' index space from the density's, when they differ.
     let from_density = (m.index_from_world() != index_from_world).then(|| {
@@ -176,14 +176,14 @@ fn local_displacement(
 fn motion_reach<'a>(
     motion: Option<&Motion>,
     pad: Vec3,
-    local: &'a Option<impl Fn(IVec3, i32) -> [Vec3; 2] + 'a>,
+    local: &'a Option<impl Fn(IVec3, i32) -> [Vec3; 2] + Sync + 'a>,
 ) -> MotionReach<'a> {
     MotionReach {
         max: pad,
         shutter: motion.map_or((0.0, 0.0), |m| m.shutter()),
         local: local
             .as_ref()
-            .map(|f| f as &dyn Fn(IVec3, i32) -> [Vec3; 2]),
+            .map(|f| f as &(dyn Fn(IVec3, i32) -> [Vec3; 2] + Sync)),
     }
 }
 
