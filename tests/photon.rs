@@ -726,8 +726,26 @@ fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
     assert_eq!(choose_integrator(&thick, false).0, "photon");
     assert_eq!(choose_integrator(&thin, false).0, "path");
     // A denoised image: the path tracer (its noise is what the denoiser
-    // removes; docs/performance.md, "Denoising").
+    // removes; docs/performance.md, "Denoising")...
     assert_eq!(choose_integrator(&thick, true).0, "path");
+    // ...unless volumes glow: photons carry the fire's light scattered by
+    // the smoke, the path tracer finds it by chance.
+    let glowing = |sigma_s: f32| {
+        cloud(Material::Raw {
+            sigma_a: Rgb::splat(0.2),
+            sigma_s: Rgb::splat(sigma_s),
+            emission: Rgb::splat(1.0),
+            phase: PhaseFunction::hg(0.3),
+        })
+    };
+    let fire = world(vec![glowing(15.0)], vec![], Rgb::ZERO);
+    let (name, why) = choose_integrator(&fire, true);
+    assert_eq!(name, "photon");
+    assert!(why.contains("glow"), "{why}");
+    assert_eq!(choose_integrator(&fire, false).0, "photon");
+    // A thin glowing volume: the path tracer, denoised or not.
+    let thin_fire = world(vec![glowing(0.1)], vec![], Rgb::ZERO);
+    assert_eq!(choose_integrator(&thin_fire, true).0, "path");
     // Nothing scatters (a thick absorber; a material of zero coefficients): the
     // path tracer at once, whatever the thickness.
     let absorber = world(vec![cloud(raw(15.0, 0.0, 0.3))], sun(), Rgb::ZERO);
