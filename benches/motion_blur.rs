@@ -22,55 +22,51 @@ fn env(name: &str, default: u32) -> u32 {
         .unwrap_or(default)
 }
 
+/// One render of `spp` samples per pixel: the seconds its passes take.
+/// The integrator (with its photon pilot) and film are made first, then
+/// `start` runs and the clock starts.
+fn render(desc: &SceneDesc, world: &World, spp: u32, start: impl FnOnce()) -> f64 {
+    let r = &desc.render;
+    let mut integrator = make_integrator(desc, world).unwrap();
+    let mut film = Film::new(r.width, r.height, Region::full(r.width, r.height), false);
+    start();
+    let t = Instant::now();
+    run_passes(
+        world,
+        integrator.as_mut(),
+        &mut film,
+        r.seed,
+        Stop::Passes(spp),
+        &Silent,
+        |_, _, _| Ok(()),
+    )
+    .unwrap();
+    t.elapsed().as_secs_f64()
+}
+
 /// Seconds of the best of `runs` renders.
 fn time(desc: &SceneDesc, spp: u32, runs: u32) -> f64 {
     let world = World::load(desc).unwrap();
-    let r = &desc.render;
-    let mut best = f64::INFINITY;
-    for _ in 0..runs {
-        let mut integrator = make_integrator(desc, &world).unwrap();
-        let mut film = Film::new(r.width, r.height, Region::full(r.width, r.height), false);
-        let t = Instant::now();
-        run_passes(
-            &world,
-            integrator.as_mut(),
-            &mut film,
-            r.seed,
-            Stop::Passes(spp),
-            &Silent,
-            |_, _, _| Ok(()),
-        )
-        .unwrap();
-        best = best.min(t.elapsed().as_secs_f64());
-    }
-    best
+    (0..runs)
+        .map(|_| render(desc, &world, spp, || {}))
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Lookups and tentative collisions per sample, counted on one thread
 /// over `spp` samples per pixel.
 fn counts(desc: &SceneDesc, spp: u32) -> (f64, f64) {
     let world = World::load(desc).unwrap();
-    let r = &desc.render;
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
     let c = one.install(|| {
-        let mut integrator = make_integrator(desc, &world).unwrap();
-        let mut film = Film::new(r.width, r.height, Region::full(r.width, r.height), false);
-        tracking::take_counters();
-        run_passes(
-            &world,
-            integrator.as_mut(),
-            &mut film,
-            r.seed,
-            Stop::Passes(spp),
-            &Silent,
-            |_, _, _| Ok(()),
-        )
-        .unwrap();
+        render(desc, &world, spp, || {
+            tracking::take_counters();
+        });
         tracking::take_counters()
     });
+    let r = &desc.render;
     let n = (r.width * r.height * spp) as f64;
     (c.lookups as f64 / n, c.tentative as f64 / n)
 }

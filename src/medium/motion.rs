@@ -29,6 +29,12 @@ fn abs_mul(m: Mat3, v: Vec3) -> Vec3 {
     Mat3::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs()) * v
 }
 
+/// Frames a shutter open over `(open, close)` reaches from the frame,
+/// either way.
+fn reach((open, close): (f32, f32)) -> f32 {
+    open.abs().max(close.abs())
+}
+
 /// A volume's velocity: one vector grid, or three float grids, one per
 /// component, with the same transform.
 #[derive(Debug, Clone)]
@@ -143,8 +149,8 @@ pub struct Motion {
     index_per_frame: Mat3,
     /// The largest magnitude of each grid component.
     max_components: Vec3,
+    /// When the shutter opens and closes, in frames from the frame.
     shutter: (f32, f32),
-    max_time: f32,
 }
 
 impl Motion {
@@ -155,9 +161,7 @@ impl Motion {
         let world_per_frame = transform.matrix3.as_mat3() * Mat3::from_diagonal(field.per_frame);
         let max_components = field.grids.max_components();
         let speed = abs_mul(world_per_frame, max_components).length();
-        let (open, close) = field.shutter;
-        let max_time = open.abs().max(close.abs());
-        if !(speed > 0.0 && max_time > 0.0) {
+        if !(speed > 0.0 && reach(field.shutter) > 0.0) {
             return None;
         }
         let wfi = transform * field.grids.world_from_index();
@@ -172,7 +176,6 @@ impl Motion {
             world_per_frame,
             max_components,
             shutter: field.shutter,
-            max_time,
         })
     }
 
@@ -218,7 +221,7 @@ impl Motion {
 
     /// Frames the shutter reaches from the frame, at most, either way.
     pub fn max_time(&self) -> f32 {
-        self.max_time
+        reach(self.shutter)
     }
 
     /// When the shutter opens and closes, in frames from the frame.
@@ -228,7 +231,7 @@ impl Motion {
 
     /// How far (world units) a lookup may be displaced over the shutter.
     pub fn max_displacement(&self) -> f32 {
-        abs_mul(self.world_per_frame, self.max_components).length() * self.max_time
+        abs_mul(self.world_per_frame, self.max_components).length() * self.max_time()
     }
 
     /// How far a lookup may be displaced over the shutter along each axis
@@ -236,7 +239,7 @@ impl Motion {
     /// displacement is τ·A·W·v, so its component a is at most
     /// max|τ| · Σ_j |(A·W)_aj| · max|v_j|.
     pub fn index_displacement(&self, index_from_world: Mat3) -> Vec3 {
-        abs_mul(index_from_world * self.world_per_frame, self.max_components) * self.max_time
+        abs_mul(index_from_world * self.world_per_frame, self.max_components) * self.max_time()
     }
 
     /// The displacement per frame, `[min, max]` along each axis of the

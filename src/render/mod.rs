@@ -213,7 +213,6 @@ pub fn choose_integrator(world: &World, denoise: bool) -> (&'static str, &'stati
             "denoised: the path tracer, whose noise the denoiser removes",
         );
     }
-
     let thick = world.media.volumes().iter().any(|v| {
         let (lo, hi) = v.world_bounds();
         let extent = (hi - lo).max_element();
