@@ -1,33 +1,51 @@
-//! Equal-time comparison of the photon integrator and the path tracer:
-//! prints figures, asserts nothing. `cargo bench --bench equal_time`
-//! (`BENCH_BUDGETS=10,30,120` seconds by default; `BENCH_SCENES=sun,dense`;
-//! `BENCH_SEED`, 7 by default; `BENCH_INTEGRATORS=path,photon`;
-//! `BENCH_PHOTONS`, `BENCH_K`, `BENCH_ALPHA`, `BENCH_ESTIMATE` override
-//! the scene's photon settings).
+//! The equal-time table of issue 35: prints figures, asserts nothing.
+//! `cargo bench --bench equal_time`.
 //!
-//! Both integrators render each scene for each wall-clock budget on all
-//! threads (passes until the budget, as `vdbphoton render --time`), and
-//! each image is compared with a ground truth: relative MSE
-//! (mean((a − b)² / (b² + 0.01)), the shared reference's formula) and the
-//! image-mean ratio.
-//! - `sun`: `reference/cloud96_sun.toml` (from `VDBPHOTON_REAL_DATA`,
-//!   default `../shared/data`) against Mitsuba's 2048-spp ground truth.
-//! - `dense`: `reference/cloud96_dense.toml` against the mean of two
-//!   path-traced halves of 2048 spp, `cloud96_dense_a.exr` and `_b.exr`
-//!   in `BENCH_TRUTH` (default `target/ground_truth`); when they are
-//!   missing the bench prints the commands that make them (about 20
-//!   minutes each on two cores). The halves' relative MSE against each
-//!   other is printed (the ground truth's own noise is about a quarter of
-//!   it).
+//! Every scene of the benchmark set (`benches/scenes/*.toml`, 160 x 120:
+//! the reference and dense clouds under a sun and under sky light alone,
+//! the Houdini pyro under a sun and under a sky, the Blender smoke + fire
+//! frame, a thin cloud of albedo 0.8, an emission-only fire) is rendered
+//! by the path tracer and the photon integrator for each wall-clock budget
+//! on all threads (passes until the budget, as `vdbphoton render --time`),
+//! and each image is compared with the scene's converged reference:
+//! relative MSE (mean((a − b)² / (b² + 0.01)), the shared reference's
+//! formula) and the image-mean ratio. `auto` is the integrator
+//! [`choose_integrator`] picks for the scene (printed with its reason); its
+//! figures are that integrator's run (same seed, same image).
+//!
+//! References: the mean of two path-traced halves, `NAME_a.exr` (seed
+//! 1001) and `NAME_b.exr` (seed 2002) in `BENCH_TRUTH` (default
+//! `target/ground_truth`); the halves' relative MSE against each other is
+//! printed (the reference's own error is about a quarter of it). When
+//! they are missing, the bench prints the commands that make them.
+//!
+//! Environment: `BENCH_SCENES` (comma-separated names, default all),
+//! `BENCH_BUDGETS` (seconds, default 10,30,120), `BENCH_SEED` (7),
+//! `BENCH_INTEGRATORS` (path,photon); `BENCH_PHOTONS`, `BENCH_K`,
+//! `BENCH_ALPHA`, `BENCH_ESTIMATE` override the photon settings;
+//! `VDBPHOTON_REAL_DATA` points at the shared data (default: the scenes'
+//! own paths, `../shared/data` beside the repository).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use vdbphoton::film::{Film, Region};
-use vdbphoton::image::{compare, read_exr_rgb, ImageRgb};
-use vdbphoton::integrator::photon::{photons_for, PhotonSettings};
-use vdbphoton::render::{make_integrator, run_passes, Silent, Stop};
-use vdbphoton::scene::SceneDesc;
+use vdbphoton::image::{compare, read_exr_rgb, ImageRgb, Metrics};
+use vdbphoton::render::{choose_integrator, make_integrator, run_passes, Silent, Stop};
+use vdbphoton::scene::{Param, SceneDesc};
 use vdbphoton::world::World;
+
+/// The benchmark set, in the order of the table.
+const SCENES: &[&str] = &[
+    "cloud_sun",
+    "cloud_sky",
+    "dense_sun",
+    "dense_sky",
+    "pyro_sun",
+    "pyro_sky",
+    "smoke_fire",
+    "wisp_sun",
+    "fire",
+];
 
 fn average(a: &ImageRgb, b: &ImageRgb) -> ImageRgb {
     ImageRgb {
@@ -41,132 +59,200 @@ fn average(a: &ImageRgb, b: &ImageRgb) -> ImageRgb {
     }
 }
 
+fn env_or(var: &str, default: &str) -> String {
+    std::env::var(var).unwrap_or_else(|_| default.into())
+}
+
+/// The scene `name` of the set, its volumes moved to `data` when given.
+fn load(dir: &Path, name: &str, data: Option<&Path>) -> SceneDesc {
+    let mut desc = SceneDesc::load(dir.join(format!("{name}.toml"))).unwrap();
+    if let Some(data) = data {
+        for v in &mut desc.volumes {
+            let s = v.file.to_string_lossy().into_owned();
+            if let Some(i) = s.find("shared/data/") {
+                v.file = data.join(&s[i + "shared/data/".len()..]);
+            }
+        }
+    }
+    // Photon settings from the environment, into [render.photon].
+    let photon = desc.render.settings.entry("photon".into()).or_default();
+    for (var, key) in [("BENCH_PHOTONS", "photons"), ("BENCH_K", "k")] {
+        if let Some(n) = std::env::var(var).ok().and_then(|v| v.parse().ok()) {
+            photon.insert(key.into(), Param::Int(n));
+        }
+    }
+    if let Some(a) = std::env::var("BENCH_ALPHA")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        photon.insert("alpha".into(), Param::Float(a));
+    }
+    if let Ok(e) = std::env::var("BENCH_ESTIMATE") {
+        photon.insert("estimate".into(), Param::Str(e));
+    }
+    desc
+}
+
+/// Renders `desc` with `integrator` for `budget` seconds: the image, the
+/// passes and the seconds taken.
+fn render(desc: &SceneDesc, integrator: &str, budget: f64) -> (ImageRgb, u32, f64) {
+    let mut desc = desc.clone();
+    desc.render.integrator = integrator.into();
+    let world = World::load(&desc).unwrap();
+    let mut integ = make_integrator(&desc, &world).unwrap();
+    let (w, h) = (desc.render.width, desc.render.height);
+    let mut film = Film::new(w, h, Region::full(w, h), false);
+    let t = Instant::now();
+    let passes = run_passes(
+        &world,
+        integ.as_mut(),
+        &mut film,
+        desc.render.seed,
+        Stop::Time(Duration::from_secs_f64(budget)),
+        &Silent,
+        |_, _, _| Ok(()),
+    )
+    .unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    let img = ImageRgb {
+        width: w as usize,
+        height: h as usize,
+        pixels: film.mean_rgb(),
+    };
+    (img, passes, secs)
+}
+
+struct Row {
+    scene: String,
+    budget: f64,
+    path: Option<Metrics>,
+    photon: Option<Metrics>,
+    auto: &'static str,
+    truth_noise: f64,
+}
+
 fn main() {
     if std::env::args().any(|a| a == "--list") {
         return;
     }
-    let data = std::env::var_os("VDBPHOTON_REAL_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("../shared/data"));
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let dir = root.join("benches/scenes");
+    let data = std::env::var_os("VDBPHOTON_REAL_DATA").map(PathBuf::from);
     let truth_dir = std::env::var_os("BENCH_TRUTH")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("target/ground_truth"));
-    let budgets: Vec<f64> = std::env::var("BENCH_BUDGETS")
-        .unwrap_or_else(|_| "10,30,120".into())
+        .unwrap_or_else(|| root.join("target/ground_truth"));
+    let budgets: Vec<f64> = env_or("BENCH_BUDGETS", "10,30,120")
         .split(',')
         .filter_map(|s| s.trim().parse().ok())
         .collect();
-    let scenes = std::env::var("BENCH_SCENES").unwrap_or_else(|_| "sun,dense".into());
-    println!("{} threads", rayon::current_num_threads());
-    for scene in scenes.split(',') {
-        let (file, truth) = match scene.trim() {
-            "sun" => (
-                data.join("reference/cloud96_sun.toml"),
-                read_exr_rgb(data.join("reference/mitsuba_2048.exr")).ok(),
-            ),
-            "dense" => {
-                let a = read_exr_rgb(truth_dir.join("cloud96_dense_a.exr"));
-                let b = read_exr_rgb(truth_dir.join("cloud96_dense_b.exr"));
-                let t = match (a, b) {
-                    (Ok(a), Ok(b)) => {
-                        let m = compare(&a, &b).unwrap();
-                        println!(
-                            "dense ground truth: halves' relMSE against each other {:.3e}, mean ratio {:.5}",
-                            m.rel_mse, m.mean_ratio
-                        );
-                        Some(average(&a, &b))
-                    }
-                    _ => {
-                        println!(
-                            "(no dense ground truth in {}: make it with\n  vdbphoton render {}/reference/cloud96_dense.toml --integrator path --spp 2048 --seed 1001 -o {}/cloud96_dense_a.exr --no-preview\n  and the same with --seed 2002 -o .../cloud96_dense_b.exr)",
-                            truth_dir.display(),
-                            data.display(),
-                            truth_dir.display()
-                        );
-                        None
-                    }
-                };
-                (data.join("reference/cloud96_dense.toml"), t)
+    let scenes = env_or("BENCH_SCENES", &SCENES.join(","));
+    let choices: Vec<String> = env_or("BENCH_INTEGRATORS", "path,photon")
+        .split(',')
+        .map(|c| c.trim().to_string())
+        .collect();
+    let seed: u64 = env_or("BENCH_SEED", "7").parse().unwrap_or(7);
+    println!("{} threads, seed {seed}", rayon::current_num_threads());
+    let mut rows = Vec::new();
+    for name in scenes.split(',').map(str::trim) {
+        let mut desc = load(&dir, name, data.as_deref());
+        desc.render.seed = seed;
+        let halves = ["a", "b"].map(|h| read_exr_rgb(truth_dir.join(format!("{name}_{h}.exr"))));
+        let (truth, truth_noise) = match halves {
+            [Ok(a), Ok(b)] => {
+                let m = compare(&a, &b).unwrap();
+                (average(&a, &b), m.rel_mse)
             }
-            other => {
-                println!("(unknown scene {other})");
+            _ => {
+                println!(
+                    "\n{name}: no reference in {}; make it with (4096 spp each for the dense clouds' 2048)",
+                    truth_dir.display()
+                );
+                for (h, s) in [("a", 1001), ("b", 2002)] {
+                    println!(
+                        "  vdbphoton render {}/{name}.toml --integrator path --spp 4096 --seed {s} -o {}/{name}_{h}.exr --no-preview",
+                        dir.display(),
+                        truth_dir.display()
+                    );
+                }
                 continue;
             }
         };
-        let Some(truth) = truth else {
-            continue;
-        };
-        let mut desc = SceneDesc::load(&file).unwrap();
-        // Photon settings from the environment, into [render.photon].
-        {
-            use vdbphoton::scene::Param;
-            let photon = desc.render.settings.entry("photon".into()).or_default();
-            for (var, key) in [("BENCH_PHOTONS", "photons"), ("BENCH_K", "k")] {
-                if let Some(n) = std::env::var(var).ok().and_then(|v| v.parse().ok()) {
-                    photon.insert(key.into(), Param::Int(n));
-                }
-            }
-            if let Some(a) = std::env::var("BENCH_ALPHA")
-                .ok()
-                .and_then(|v| v.parse().ok())
-            {
-                photon.insert("alpha".into(), Param::Float(a));
-            }
-            if let Ok(e) = std::env::var("BENCH_ESTIMATE") {
-                photon.insert("estimate".into(), Param::Str(e));
-            }
-        }
-        let settings = PhotonSettings::of(&desc).unwrap();
-        let choices: Vec<String> = std::env::var("BENCH_INTEGRATORS")
-            .unwrap_or_else(|_| "path,photon".into())
-            .split(',')
-            .map(|c| c.trim().to_string())
-            .collect();
+        let world = World::load(&desc).unwrap();
+        let (auto, why) = choose_integrator(&world, false, desc.render.max_bounces, seed);
+        drop(world);
         println!(
-            "\n== {} (photons {} a pass, {:?} estimate, alpha {:?}, k {:?})",
-            file.display(),
-            photons_for(&settings, desc.render.width, desc.render.height),
-            settings.estimate,
-            settings.alpha,
-            settings.k
+            "\n== {name}: reference halves' relMSE {truth_noise:.2e}, mean {:.5}; auto: {auto} ({why})",
+            truth.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>()
+                / (3 * truth.pixels.len()) as f64
         );
-        let seed: u64 = std::env::var("BENCH_SEED")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(7);
         for &budget in &budgets {
-            for choice in &choices {
-                desc.render.integrator = choice.clone();
-                desc.render.seed = seed;
-                let world = World::load(&desc).unwrap();
-                let mut integ = make_integrator(&desc, &world).unwrap();
-                let (w, h) = (desc.render.width, desc.render.height);
-                let mut film = Film::new(w, h, Region::full(w, h), false);
-                let t = Instant::now();
-                let passes = run_passes(
-                    &world,
-                    integ.as_mut(),
-                    &mut film,
-                    seed,
-                    Stop::Time(Duration::from_secs_f64(budget)),
-                    &Silent,
-                    |_, _, _| Ok(()),
-                )
-                .unwrap();
-                let secs = t.elapsed().as_secs_f64();
-                let img = ImageRgb {
-                    width: w as usize,
-                    height: h as usize,
-                    pixels: film.mean_rgb(),
-                };
+            let mut row = Row {
+                scene: name.into(),
+                budget,
+                path: None,
+                photon: None,
+                auto,
+                truth_noise,
+            };
+            let mut wanted: Vec<&str> = choices.iter().map(String::as_str).collect();
+            if !wanted.contains(&auto) {
+                wanted.push(auto);
+            }
+            for integ in wanted {
+                let (img, passes, secs) = render(&desc, integ, budget);
                 let m = compare(&img, &truth).unwrap();
                 println!(
-                    "budget {budget:>5.0} s  {:<6}  {passes:>5} passes in {secs:6.1} s  relMSE {:.3e}  mean ratio {:.5}",
-                    integ.name(),
-                    m.rel_mse,
-                    m.mean_ratio
+                    "budget {budget:>5.0} s  {integ:<6}  {passes:>5} passes in {secs:6.1} s  relMSE {:.3e}  mean ratio {:.5}",
+                    m.rel_mse, m.mean_ratio
                 );
+                match integ {
+                    "path" => row.path = Some(m),
+                    "photon" => row.photon = Some(m),
+                    _ => {}
+                }
             }
+            rows.push(row);
         }
+    }
+    // The table, as docs/performance.md shows it.
+    println!("\n| scene | budget | path relMSE | photon relMSE | photon / path | photon mean | auto | auto <= path | reference noise |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let f = |m: &Option<Metrics>| {
+        m.as_ref()
+            .map_or("-".into(), |m| format!("{:.2e}", m.rel_mse))
+    };
+    for r in &rows {
+        let ratio = match (&r.path, &r.photon) {
+            (Some(a), Some(b)) => format!("{:.2}", b.rel_mse / a.rel_mse),
+            _ => "-".into(),
+        };
+        let mean = r
+            .photon
+            .as_ref()
+            .map_or("-".into(), |m| format!("{:.4}", m.mean_ratio));
+        let auto = if r.auto == "photon" {
+            &r.photon
+        } else {
+            &r.path
+        };
+        let ok = match (auto, &r.path) {
+            (Some(a), Some(p)) => {
+                if a.rel_mse <= p.rel_mse {
+                    "yes"
+                } else {
+                    "no"
+                }
+            }
+            _ => "-",
+        };
+        println!(
+            "| {} | {:.0} s | {} | {} | {ratio} | {mean} | {} | {ok} | {:.1e} |",
+            r.scene,
+            r.budget,
+            f(&r.path),
+            f(&r.photon),
+            r.auto,
+            r.truth_noise / 4.0
+        );
     }
 }

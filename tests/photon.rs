@@ -717,19 +717,52 @@ fn same_image_on_one_and_two_threads() {
     assert!(mean(&a.mean_rgb()) > 0.0);
 }
 
+/// `auto` decides from what the pilot measures (one case per regime of
+/// `choose_integrator`), and says it.
 #[test]
-fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
-    use vdbphoton::render::choose_integrator;
+fn auto_decides_from_what_the_pilot_measures() {
+    use vdbphoton::integrator::photon::pilot;
+    use vdbphoton::render::{choose_integrator, SCATTERING_ORDER};
     let sun = || vec![Light::sun(Vec3::Z, Rgb::ONE, 0.0)];
-    let thick = world(vec![cloud(raw(0.2, 15.0, 0.3))], sun(), Rgb::ZERO);
-    let thin = world(vec![cloud(raw(0.05, 0.3, 0.3))], sun(), Rgb::ZERO);
-    assert_eq!(choose_integrator(&thick, false).0, "photon");
-    assert_eq!(choose_integrator(&thin, false).0, "path");
+    let sky = Rgb::splat(0.3);
+    let choose = |w: &World, denoise: bool| choose_integrator(w, denoise, 1024, 1);
+    let order = |w: &World| pilot(w, 1024, 1).unwrap().order;
+    let medium = |sigma_s: f32| cloud(raw(0.002, sigma_s, 0.3));
+    // Under a sun, photons that scatter 6 times or more: photon mapping,
+    // moderate or dense.
+    let moderate_sun = world(vec![medium(15.0)], sun(), Rgb::ZERO);
+    let dense_sun = world(vec![medium(40.0)], sun(), Rgb::ZERO);
+    assert!(order(&moderate_sun) >= SCATTERING_ORDER);
+    assert!(order(&dense_sun) > order(&moderate_sun));
+    for w in [&moderate_sun, &dense_sun] {
+        let (name, why) = choose(w, false);
+        assert_eq!(name, "photon", "{why}");
+        assert!(why.contains("times on average"), "{why}");
+    }
+    // Sky light alone: the path tracer, however dense.
+    for sigma_s in [15.0, 40.0] {
+        let w = world(vec![medium(sigma_s)], vec![], sky);
+        let (name, why) = choose(&w, false);
+        assert_eq!(name, "path");
+        assert!(
+            why.contains("the sky 100 %") && why.contains("sky light"),
+            "{why}"
+        );
+    }
+    // A sun and a bright sky, where the sky gives most of the light.
+    let both = world(vec![medium(40.0)], sun(), Rgb::splat(1.0));
+    assert!(pilot(&both, 1024, 1).unwrap().environment_share > 0.5);
+    assert_eq!(choose(&both, false).0, "path");
+    // Thin: the path tracer.
+    let thin = world(vec![medium(2.0)], sun(), Rgb::ZERO);
+    assert!(order(&thin) < SCATTERING_ORDER);
+    assert_eq!(choose(&thin, false).0, "path");
     // A denoised image: the path tracer (its noise is what the denoiser
     // removes; docs/performance.md, "Denoising")...
-    assert_eq!(choose_integrator(&thick, true).0, "path");
-    // ...unless volumes glow: photons carry the fire's light scattered by
-    // the smoke, the path tracer finds it by chance.
+    assert_eq!(choose(&dense_sun, true).0, "path");
+    // ...unless volumes glow and their light scatters: photons carry the
+    // fire's light scattered by the smoke, the path tracer finds it by
+    // chance.
     let glowing = |sigma_s: f32| {
         cloud(Material::Raw {
             sigma_a: Rgb::splat(0.2),
@@ -739,21 +772,30 @@ fn auto_picks_photons_for_thick_media_and_paths_for_thin_ones() {
         })
     };
     let fire = world(vec![glowing(15.0)], vec![], Rgb::ZERO);
-    let (name, why) = choose_integrator(&fire, true);
-    assert_eq!(name, "photon");
-    assert!(why.contains("glow"), "{why}");
-    assert_eq!(choose_integrator(&fire, false).0, "photon");
-    // A thin glowing volume: the path tracer, denoised or not.
+    for denoise in [false, true] {
+        let (name, why) = choose(&fire, denoise);
+        assert_eq!(name, "photon");
+        assert!(why.contains("glow"), "{why}");
+    }
+    // A glowing volume whose light hardly scatters: the path tracer,
+    // denoised or not.
     let thin_fire = world(vec![glowing(0.1)], vec![], Rgb::ZERO);
-    assert_eq!(choose_integrator(&thin_fire, true).0, "path");
-    // Nothing scatters (a thick absorber; a material of zero coefficients): the
-    // path tracer at once, whatever the thickness.
+    assert!(pilot(&thin_fire, 1024, 1).unwrap().media_scattering < 0.2);
+    assert_eq!(choose(&thin_fire, true).0, "path");
+    assert_eq!(choose(&thin_fire, false).0, "path");
+    // Nothing scatters (a thick absorber; a material of zero coefficients):
+    // the path tracer at once, whatever the thickness.
     let absorber = world(vec![cloud(raw(15.0, 0.0, 0.3))], sun(), Rgb::ZERO);
-    let (name, why) = choose_integrator(&absorber, false);
+    let (name, why) = choose(&absorber, false);
     assert_eq!(name, "path");
     assert!(why.contains("nothing scatters"), "{why}");
     let empty = world(vec![cloud(raw(0.0, 0.0, 0.3))], sun(), Rgb::ZERO);
-    assert_eq!(choose_integrator(&empty, false).0, "path");
+    assert_eq!(choose(&empty, false).0, "path");
+    // No light at all.
+    let dark = world(vec![medium(40.0)], vec![], Rgb::ZERO);
+    let (name, why) = choose(&dark, false);
+    assert_eq!(name, "path");
+    assert!(why.contains("no light"), "{why}");
 }
 
 /// The pilot measures the media's scattering order, and the automatic

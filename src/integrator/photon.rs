@@ -36,7 +36,7 @@
 
 use super::nee::direct_light;
 use super::{param, Integrator, SampleKey, SampleResult};
-use crate::photon::beam::BeamMap;
+use crate::photon::beam::{BeamMap, RATIO_MAX};
 use crate::photon::emitter::Emitters;
 use crate::photon::importance::Importance;
 use crate::photon::map::{density_radii, median, PointMap};
@@ -300,6 +300,27 @@ const MAX_STEP_TAU: f32 = 0.5;
 /// wherever the light gets through.
 const MAX_STEPS_PER_VOXEL: f32 = 16.0;
 
+/// The cap on the σs ratio of the beam estimate in pass `pass` (0-based):
+/// [`RATIO_MAX`] times √(pass + 1).
+///
+/// The cap keeps a photon stored in a cloud's thin fringe from becoming a
+/// firefly where its kernel reaches a dense core, but the light it cuts is
+/// lost: with a constant cap of 16 the Houdini pyro under a sun
+/// (benches/scenes/pyro_sun.toml) came out 0.8 % dark at 10 s and 0.6 %
+/// at 30 s, the Blender smoke + fire frame 0.3 %. Growing as √(pass + 1),
+/// a firefly of pass i weighs at most 16/√N in the mean of N passes, so
+/// the image still converges, and the cut light goes to zero. Measured
+/// with `cargo bench --bench equal_time` (relMSE at 10 s and 30 s on two
+/// threads; docs/performance.md): the pyro 3.2e-4 and 1.6e-4 with the
+/// constant cap, 2.5e-4 and 1.1e-4 growing as √(pass + 1), 3.2e-4 and
+/// 1.1e-4 as (pass + 1), 4.3e-4 and 1.4e-4 with no cap (the fireflies);
+/// the smoke + fire frame within noise of the constant cap (1.7e-5 and
+/// 1.0e-5, against 1.6e-5 and 9.2e-6), its mean 0.2 % from the
+/// reference instead of 0.3 %.
+fn ratio_max(pass: u32) -> f32 {
+    RATIO_MAX * ((pass + 1) as f32).sqrt()
+}
+
 /// The march plays Russian roulette once the transmittance is below this.
 const MARCH_RR: f32 = 0.02;
 
@@ -378,6 +399,57 @@ pub struct PhotonIntegrator {
     /// The time of this pass's photons and camera rays (motion blur; 0 for
     /// a still frame): see [`pass_time`].
     time: f32,
+}
+
+/// What a short photon trace measures of a world's light and media, for
+/// `auto` (`crate::render::choose_integrator`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pilot {
+    /// Mean scattering events of a photon that scatters at least once.
+    pub order: f64,
+    /// The share of the emitted power that comes from the media (fire).
+    pub media_share: f32,
+    /// The share that comes from the environment (sky light).
+    pub environment_share: f32,
+    /// The share of the photons that scatter at least once.
+    pub scattering: f64,
+    /// The share of the photons the media emit that scatter at least once.
+    pub media_scattering: f64,
+}
+
+/// Photons of [`pilot`]: enough for the mean scattering order to within a
+/// few per cent, a few milliseconds in thin media, 0.1 s in the dense
+/// cloud (where a photon scatters 60 times).
+pub const PILOT_PHOTONS: u32 = 4096;
+
+/// Traces [`PILOT_PHOTONS`] photons of `world` (their own stream of the
+/// seed, at the first pass's time) and measures what `auto` decides by;
+/// `None` when nothing emits towards the volumes.
+pub fn pilot(world: &World, max_bounces: u32, seed: u64) -> Option<Pilot> {
+    let emitters = Emitters::new(world)?;
+    let none = photon::Store {
+        scale: 0.0,
+        importance: None,
+    };
+    let time = pass_time(world, seed, 0);
+    let (_, st) = photon::trace(
+        world,
+        &emitters,
+        PILOT_PHOTONS,
+        seed,
+        u32::MAX - 1,
+        time,
+        max_bounces,
+        none,
+    );
+    let (media_share, environment_share) = emitters.shares();
+    Some(Pilot {
+        order: st.order(),
+        media_share,
+        environment_share,
+        scattering: st.scattered as f64 / st.emitted.max(1) as f64,
+        media_scattering: st.media_scattered as f64 / st.media_emitted.max(1) as f64,
+    })
 }
 
 /// The time within `world`'s shutter at which pass `pass` renders
@@ -532,7 +604,7 @@ impl Integrator for PhotonIntegrator {
         self.map = match self.settings.estimate {
             Estimate::Beam => {
                 let radius = self.radii(&photons, world, pass);
-                BeamMap::new(photons, radius).map(Map::Beam)
+                BeamMap::new(photons, radius, ratio_max(pass)).map(Map::Beam)
             }
             Estimate::Point => {
                 if self.r_max.is_none() {

@@ -23,24 +23,29 @@ use std::f32::consts::PI;
 use std::time::Duration;
 
 /// The largest σs ratio (where gathered over where stored) a photon is
-/// weighted by: a photon kept in a cloud's thin fringe and gathered where
-/// it is dense would otherwise be a firefly (measured on the dense
-/// reference cloud: 14 passes, relMSE 6.1e-3 uncapped, 3.9e-3 and 4.1e-3 capped at 4
-/// or 16; capped at 1, the image is 3.5 % too dark). Ratios tend to 1 as
-/// radii shrink, so the cap does not stop convergence.
+/// weighted by in the first pass: a photon kept in a cloud's thin fringe and
+/// gathered where it is dense would otherwise be a firefly (measured on the
+/// dense reference cloud: 14 passes, relMSE 6.1e-3 uncapped, 3.9e-3 and
+/// 4.1e-3 capped at 4 or 16; capped at 1, the image is 3.5 % too dark).
+/// The beam estimate's cap grows over passes (the photon integrator's
+/// `ratio_max`), so the light it cuts goes to zero; the point estimate
+/// keeps this one.
 pub const RATIO_MAX: f32 = 16.0;
 
 /// A pass's photons with their radii, in BVH order.
 pub struct BeamMap {
     photons: Vec<Photon>,
     radius: Vec<f32>,
+    /// The cap on the σs ratio in this pass.
+    ratio_max: f32,
     bvh: CwBvh,
 }
 
 impl BeamMap {
     /// Builds the BVH over the spheres (`radius[i]` around photon `i`);
-    /// `None` when there are no photons.
-    pub fn new(photons: Vec<Photon>, radius: Vec<f32>) -> Option<Self> {
+    /// `None` when there are no photons. `ratio_max` caps the σs ratio a
+    /// photon is weighted by (see [`RATIO_MAX`]).
+    pub fn new(photons: Vec<Photon>, radius: Vec<f32>, ratio_max: f32) -> Option<Self> {
         if photons.is_empty() {
             return None;
         }
@@ -61,6 +66,7 @@ impl BeamMap {
         Some(Self {
             photons,
             radius,
+            ratio_max,
             bvh,
         })
     }
@@ -119,7 +125,7 @@ impl BeamMap {
             }
             let k = 3.0 / (2.0 * PI * r2) * (1.0 - d2 / r2).max(0.0).sqrt();
             let c = p.power
-                * (k * (sigma_s / p.sigma_s).min(RATIO_MAX)
+                * (k * (sigma_s / p.sigma_s).min(self.ratio_max)
                     * media.phase_of(p.volume()).eval(wo, p.wi))
                 * tr;
             if p.from_media() {

@@ -123,6 +123,28 @@ impl Emitters {
         self.power.iter().copied().sum()
     }
 
+    /// The shares of the total power (mean over channels) that the media's
+    /// emission and the environment emit: (media, environment).
+    pub fn shares(&self) -> (f32, f32) {
+        let total: f32 = self.power.iter().map(|p| avg(*p)).sum();
+        if total <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let of = |want: fn(&Source) -> bool| {
+            self.sources
+                .iter()
+                .zip(&self.power)
+                .filter(|(s, _)| want(s))
+                .map(|(_, p)| avg(*p))
+                .sum::<f32>()
+                / total
+        };
+        (
+            of(|s| matches!(s, Source::Media)),
+            of(|s| matches!(s, Source::Environment)),
+        )
+    }
+
     /// Samples a photon at `time` (frames from the frame: where moving
     /// volumes emit): its ray and its power divided by the probability of
     /// the whole sample (source, position, direction). Divide by the number

@@ -101,6 +101,9 @@ pub struct TraceStats {
     /// them all: their ratio is the media's mean scattering order.
     pub scattered: u64,
     pub collisions: u64,
+    /// Photons the media emitted, and those of them that scattered.
+    pub media_emitted: u64,
+    pub media_scattered: u64,
 }
 
 impl TraceStats {
@@ -190,6 +193,8 @@ pub fn trace(
             stored,
             scattered: all.scattered,
             collisions: all.collisions,
+            media_emitted: all.media_emitted,
+            media_scattered: all.media_scattered,
         },
     )
 }
@@ -205,6 +210,9 @@ struct Flights {
     scattered: u64,
     /// Scattering events.
     collisions: u64,
+    /// Photons the media emitted, and those of them that scattered.
+    media_emitted: u64,
+    media_scattered: u64,
 }
 
 impl Flights {
@@ -213,6 +221,8 @@ impl Flights {
         self.weight += o.weight;
         self.scattered += o.scattered;
         self.collisions += o.collisions;
+        self.media_emitted += o.media_emitted;
+        self.media_scattered += o.media_scattered;
     }
 }
 
@@ -240,6 +250,7 @@ fn trace_one(
         return flight;
     }
     let media_bit = if e.from_media { FROM_MEDIA } else { 0 };
+    flight.media_emitted = e.from_media as u64;
     let (mut o, mut d) = (e.ray.o, e.ray.d);
     let mut collisions = 0u32;
     loop {
@@ -263,6 +274,7 @@ fn trace_one(
                 }
                 flight.collisions += 1;
                 flight.scattered = 1;
+                flight.media_scattered = e.from_media as u64;
                 if collisions >= 2 || e.from_media {
                     flight.eligible += 1;
                     let w = store.weight(c.p);

@@ -182,65 +182,115 @@ pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-/// The integrator `auto` stands for, and why, for a loaded world: the
-/// path tracer when no volume scatters light (photons would only be
-/// traced to be absorbed); else the photon integrator, unless every
-/// volume is optically thin (where most
-/// light scatters once, which the marcher and the path tracer both compute
-/// exactly, and a photon map only adds blur) or nothing scatters, or the
-/// image will be denoised and no volume glows: the path tracer's error is
-/// then pixel noise, which the denoiser removes, while the photon
-/// estimate's is blotches the size of its kernels and a slight bias, which
-/// it leaves. Denoised at 10 s on 2 threads (relative MSE against a
-/// converged image, path against photon): the dense reference cloud 5.6e-4
-/// against 3.2e-3, the reference cloud 6.1e-5 against 1.1e-4, the same
-/// cloud at albedo 0.8 3.0e-5 against 6.6e-5, the bundled cloud 7.2e-5
-/// against 2.6e-4. Where fire lights the smoke, photons carry its light
-/// from every emitting voxel, which the path tracer finds only by chance,
-/// and the photon image stays ahead denoised: Blender's fire-only frame
-/// 3.4e-5 against 1.2e-5, its smoke + fire frame under a sun 2.5e-5
-/// against 1.8e-5 (docs/performance.md, "Denoising").
-pub fn choose_integrator(world: &World, denoise: bool) -> (&'static str, &'static str) {
+/// The integrator `auto` stands for, and why, for a loaded world, from
+/// what a pilot of photons measures ([`integrator::photon::pilot`]): the
+/// share of the light the volumes emit themselves, the share of photons
+/// that scatter, and how many times a photon scatters on average.
+///
+/// The rules, from `cargo bench --bench equal_time` (docs/performance.md,
+/// "The benchmark set"), relative MSE at 10 and 30 s on 2 threads:
+/// - nothing scatters light: the path tracer; photons would carry nothing;
+/// - the volumes glow, and their light scatters: photon mapping, whose
+///   photons carry the fire's light scattered by the smoke from every
+///   emitting voxel, which the path tracer finds only by chance (Blender's
+///   fire frame 0.20x and 0.30x the path tracer's error, its smoke + fire
+///   frame under a sun 0.35x and 0.58x), denoised or not;
+/// - otherwise a denoised image: the path tracer, whose noise is what the
+///   denoiser removes (the photon estimate's error is blotches the size of
+///   its kernels and a slight bias, which it leaves);
+/// - sky light alone (at least [`SKY_SHARE`] of the light): the path
+///   tracer, whose paths escape to the sky as soon as they leave the
+///   cloud, where a photon map of sky light has the variance of a density
+///   estimate (the reference cloud under a sky 3.2x and 4.2x the path
+///   tracer's error at 10 and 30 s, the pyro 3.3x and 3.9x, the dense
+///   cloud, close to a white furnace, 11x and 21x);
+/// - lights, and photons that scatter [`SCATTERING_ORDER`] times or more
+///   on average: photon mapping, where paths are long and a photon map
+///   shares them between pixels (the dense cloud under a sun 0.71x and
+///   0.78x; the bundled cloud, 7.7 times, 0.27x at 10 s);
+/// - else the path tracer: the photon map's blur costs more than the paths
+///   it saves (the reference cloud, 4.9 times, 0.80x at 10 s but 0.98x at
+///   30 s, and 1.06x in another run; the Houdini pyro, 4.7 times, 1.04x and
+///   1.32x; the thin cloud of albedo 0.8 1.04x and 1.32x).
+pub fn choose_integrator(
+    world: &World,
+    denoise: bool,
+    max_bounces: u32,
+    seed: u64,
+) -> (&'static str, String) {
+    let path = integrator::path::REGISTRATION.name;
+    let photon = integrator::photon::REGISTRATION.name;
     if !world.media.scatters() {
         return (
-            integrator::path::REGISTRATION.name,
-            "nothing scatters light (absorption or emission only, or no density): the path tracer; photons would carry nothing",
+            path,
+            "nothing scatters light (absorption or emission only, or no density): the path tracer; photons would carry nothing".into(),
         );
     }
-    if denoise && !world.media.is_emissive() {
+    let Some(p) = integrator::photon::pilot(world, max_bounces, seed) else {
+        return (path, "no light reaches the volumes: the path tracer".into());
+    };
+    let measured = format!(
+        "the volumes emit {:.0} % of the light, the sky {:.0} %; {:.0} % of the photons scatter, {:.1} times on average",
+        100.0 * p.media_share.max(0.0),
+        100.0 * p.environment_share.max(0.0),
+        100.0 * p.scattering,
+        p.order
+    );
+    if p.media_share >= GLOW_SHARE && p.media_scattering >= GLOW_SCATTERING {
         return (
-            integrator::path::REGISTRATION.name,
-            "denoised: the path tracer, whose noise the denoiser removes",
+            photon,
+            format!("{measured}: photon mapping, whose photons carry the volumes' glow scattered by the smoke (the path tracer finds it by chance)"),
         );
     }
-    let thick = world.media.volumes().iter().any(|v| {
-        let (lo, hi) = v.world_bounds();
-        let extent = (hi - lo).max_element();
-        v.sigma_t_per_density() * v.density().value_range().map_or(0.0, |r| r[1]) * extent > 2.0
-    });
-    if thick {
+    if denoise {
+        return (
+            path,
+            format!("{measured}; denoised: the path tracer, whose noise the denoiser removes"),
+        );
+    }
+    if p.environment_share >= SKY_SHARE {
         (
-            integrator::photon::REGISTRATION.name,
-            if denoise {
-                "denoised, but volumes glow: photon mapping, whose photons carry the fire's light scattered by the smoke (the path tracer finds it by chance, and the denoiser does not make up for that)"
-            } else {
-                "optically thick volume: photon mapping"
-            },
+            path,
+            format!("{measured}: the path tracer, since sky light alone lights the volumes mostly (there a path tracer's paths escape to the sky at once, and the photon map's noise is the larger)"),
+        )
+    } else if p.order >= SCATTERING_ORDER {
+        (
+            photon,
+            format!("{measured}: photon mapping, which shares long paths between pixels"),
         )
     } else {
         (
-            integrator::path::REGISTRATION.name,
-            "optically thin volumes: the path tracer",
+            path,
+            format!("{measured}: the path tracer (photon mapping pays from {SCATTERING_ORDER} scattering events on)"),
         )
     }
 }
+
+/// The share of the light the volumes must emit themselves for `auto` to
+/// count them as glowing.
+pub const GLOW_SHARE: f32 = 0.1;
+
+/// The share of the photons the volumes emit that must scatter for `auto`
+/// to take photon mapping for their glow.
+pub const GLOW_SCATTERING: f64 = 0.2;
+
+/// The share of the light the sky must give for `auto` to keep the path
+/// tracer whatever the scattering order.
+pub const SKY_SHARE: f32 = 0.5;
+
+/// The mean scattering order from which `auto` takes photon mapping for
+/// volumes that lights (not the sky) light.
+pub const SCATTERING_ORDER: f64 = 6.0;
 
 /// Builds the integrator a scene asks for (`auto`: [`choose_integrator`]),
 /// from the registry.
 pub fn make_integrator(desc: &SceneDesc, world: &World) -> Result<Box<dyn Integrator>> {
     check_integrator(desc)?;
     let name = match desc.render.integrator.as_str() {
-        AUTO_INTEGRATOR => choose_integrator(world, desc.render.denoise).0,
+        AUTO_INTEGRATOR => {
+            let r = &desc.render;
+            choose_integrator(world, r.denoise, r.max_bounces, r.seed).0
+        }
         name => name,
     };
     let reg = integrator::find(name)
@@ -620,19 +670,22 @@ pub fn render_scene(
         for w in &world.warnings {
             reporter.warning(w);
         }
-        let mut integrator = make_integrator(desc, &world)?;
+        // `auto` chooses once (its pilot traces photons), and the header
+        // says why.
+        let mut extra = extra.clone();
+        let mut integrator = if r.integrator == AUTO_INTEGRATOR {
+            let (name, why) = choose_integrator(&world, r.denoise, r.max_bounces, r.seed);
+            extra.push(("vdbphoton/auto".into(), why));
+            let mut chosen = desc.clone();
+            chosen.render.integrator = name.into();
+            make_integrator(&chosen, &world)?
+        } else {
+            make_integrator(desc, &world)?
+        };
         if integrator.name() == integrator::photon::REGISTRATION.name && !world.media.scatters() {
             reporter.warning(
                 "the photon integrator gains nothing here: no volume scatters light (absorption or emission only, or no density), so every photon would be traced only to be absorbed; integrator = \"path\" (or \"auto\") renders the same image without that work",
             );
-        }
-        // Why `auto` chose what it chose, in the header.
-        let mut extra = extra.clone();
-        if r.integrator == AUTO_INTEGRATOR {
-            extra.push((
-                "vdbphoton/auto".into(),
-                choose_integrator(&world, r.denoise).1.into(),
-            ));
         }
         let mut film = Film::new(r.width, r.height, region, r.aovs);
         if r.denoise {
