@@ -427,20 +427,15 @@ pub const PILOT_PHOTONS: u32 = 4096;
 /// `None` when nothing emits towards the volumes.
 pub fn pilot(world: &World, max_bounces: u32, seed: u64) -> Option<Pilot> {
     let emitters = Emitters::new(world)?;
-    let none = photon::Store {
-        scale: 0.0,
-        importance: None,
-    };
     let time = pass_time(world, seed, 0);
-    let (_, st) = photon::trace(
+    let st = measure(
         world,
         &emitters,
         PILOT_PHOTONS,
-        seed,
-        u32::MAX - 1,
+        (seed, u32::MAX - 1),
         time,
         max_bounces,
-        none,
+        None,
     );
     let (media_share, environment_share) = emitters.shares();
     Some(Pilot {
@@ -450,6 +445,26 @@ pub fn pilot(world: &World, max_bounces: u32, seed: u64) -> Option<Pilot> {
         scattering: st.scattered as f64 / st.emitted.max(1) as f64,
         media_scattering: st.media_scattered as f64 / st.media_emitted.max(1) as f64,
     })
+}
+
+/// Traces `n` photons in the stream `(seed, stream)` at `time` and keeps
+/// none: what their flights met (what storing every collision would keep,
+/// weighted by `importance`; the scattering order). Both pilots use it:
+/// the integrator's before its first pass and `auto`'s ([`pilot`]).
+fn measure(
+    world: &World,
+    emitters: &Emitters,
+    n: u32,
+    (seed, stream): (u64, u32),
+    time: f32,
+    max_bounces: u32,
+    importance: Option<&Importance>,
+) -> photon::TraceStats {
+    let none = photon::Store {
+        scale: 0.0,
+        importance,
+    };
+    photon::trace(world, emitters, n, seed, stream, time, max_bounces, none).1
 }
 
 /// The time within `world`'s shutter at which pass `pass` renders
@@ -563,19 +578,14 @@ impl Integrator for PhotonIntegrator {
                 // A pilot, in a stream of its own, measures what storing
                 // every collision would keep.
                 let pilot = (n / 32).max(256).min(n);
-                let none = photon::Store {
-                    scale: 0.0,
-                    importance,
-                };
-                let (_, st) = photon::trace(
+                let st = measure(
                     world,
                     emitters,
                     pilot,
-                    self.seed,
-                    u32::MAX,
+                    (self.seed, u32::MAX),
                     time,
                     self.max_bounces,
-                    none,
+                    importance,
                 );
                 self.order = st.order();
                 self.tuning = Tuning::of(&self.settings, self.order);

@@ -285,17 +285,27 @@ pub const SCATTERING_ORDER: f64 = 6.0;
 /// Builds the integrator a scene asks for (`auto`: [`choose_integrator`]),
 /// from the registry.
 pub fn make_integrator(desc: &SceneDesc, world: &World) -> Result<Box<dyn Integrator>> {
+    Ok(build_integrator(desc, world)?.0)
+}
+
+/// [`make_integrator`], with `auto`'s reason for its choice (`None` for an
+/// integrator the scene names).
+pub fn build_integrator(
+    desc: &SceneDesc,
+    world: &World,
+) -> Result<(Box<dyn Integrator>, Option<String>)> {
     check_integrator(desc)?;
-    let name = match desc.render.integrator.as_str() {
+    let (name, why) = match desc.render.integrator.as_str() {
         AUTO_INTEGRATOR => {
             let r = &desc.render;
-            choose_integrator(world, r.denoise, r.max_bounces, r.seed).0
+            let (name, why) = choose_integrator(world, r.denoise, r.max_bounces, r.seed);
+            (name, Some(why))
         }
-        name => name,
+        name => (name, None),
     };
     let reg = integrator::find(name)
         .ok_or_else(|| Error::Scene(format!("there is no integrator '{name}'")))?;
-    (reg.build)(desc, world)
+    Ok(((reg.build)(desc, world)?, why))
 }
 
 /// Checks the scene's integrator and its settings table
@@ -670,18 +680,12 @@ pub fn render_scene(
         for w in &world.warnings {
             reporter.warning(w);
         }
-        // `auto` chooses once (its pilot traces photons), and the header
-        // says why.
+        // Why `auto` chose what it chose, in the header.
         let mut extra = extra.clone();
-        let mut integrator = if r.integrator == AUTO_INTEGRATOR {
-            let (name, why) = choose_integrator(&world, r.denoise, r.max_bounces, r.seed);
+        let (mut integrator, why) = build_integrator(desc, &world)?;
+        if let Some(why) = why {
             extra.push(("vdbphoton/auto".into(), why));
-            let mut chosen = desc.clone();
-            chosen.render.integrator = name.into();
-            make_integrator(&chosen, &world)?
-        } else {
-            make_integrator(desc, &world)?
-        };
+        }
         if integrator.name() == integrator::photon::REGISTRATION.name && !world.media.scatters() {
             reporter.warning(
                 "the photon integrator gains nothing here: no volume scatters light (absorption or emission only, or no density), so every photon would be traced only to be absorbed; integrator = \"path\" (or \"auto\") renders the same image without that work",
