@@ -105,7 +105,13 @@ fn main() {
             let r = density_radii(&ph, 32, cell, 4.0 * median(&r0));
             let t_radii = secs(t);
             let t = Instant::now();
-            let beam = BeamMap::new(ph.clone(), r, vdbphoton::photon::beam::RATIO_MAX).unwrap();
+            let beam = BeamMap::new(
+                ph.clone(),
+                r,
+                Vec::new(),
+                vdbphoton::photon::beam::RATIO_MAX,
+            )
+            .unwrap();
             let t_bvh = secs(t);
             let beam_bytes = beam.memory_bytes();
             let t = Instant::now();
