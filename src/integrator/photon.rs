@@ -629,17 +629,13 @@ impl Integrator for PhotonIntegrator {
         self.map = match self.settings.estimate {
             Estimate::Beam => {
                 let radius = self.radii(&photons, world, pass);
-                let flat = if self.tuning.max_squash > 1.0 {
-                    flatten(
-                        &photons,
-                        &radius,
-                        &world.media,
-                        time,
-                        self.tuning.max_squash,
-                    )
-                } else {
-                    Vec::new()
-                };
+                let flat = flatten(
+                    &photons,
+                    &radius,
+                    &world.media,
+                    time,
+                    self.tuning.max_squash,
+                );
                 BeamMap::new(photons, radius, flat, ratio_max(pass)).map(Map::Beam)
             }
             Estimate::Point => {

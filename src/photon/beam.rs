@@ -94,7 +94,8 @@ pub fn chord_kernel(v: Vec3, d: Vec3, r: f32, flat: Flat) -> Option<(f32, f32)> 
 /// flattened along the gradient of σs, measured by central differences
 /// half a radius either side, so that its thickness along it is about the
 /// length over which σs changes by its own value, σs / |∇σs|, within
-/// [r / `max_squash`, r].
+/// [r / `max_squash`, r]. Empty (all spheres, as [`BeamMap::new`] takes
+/// them) when `max_squash` is at most 1.
 pub fn flatten(
     photons: &[Photon],
     radius: &[f32],
@@ -103,11 +104,14 @@ pub fn flatten(
     max_squash: f32,
 ) -> Vec<Flat> {
     use rayon::prelude::*;
+    if max_squash <= 1.0 {
+        return Vec::new();
+    }
     photons
         .par_iter()
         .zip(radius)
         .map(|(p, &r)| {
-            if max_squash <= 1.0 || p.sigma_s <= 0.0 {
+            if p.sigma_s <= 0.0 {
                 return Flat::SPHERE;
             }
             let h = 0.5 * r;
