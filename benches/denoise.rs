@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{gib, reset_peak, status_bytes};
+use common::{cpu, gib, reset_peak, status_bytes};
 use std::path::Path;
 use std::time::Instant;
 use vdbphoton::film::{Film, Region};
@@ -51,9 +51,10 @@ fn main() {
     )
     .unwrap();
     println!(
-        "{w} x {h}: rendered 4 spp in {:.2} s; {} threads",
+        "{w} x {h}: rendered 4 spp in {:.2} s; {} threads of {}",
         t.elapsed().as_secs_f64(),
-        rayon::current_num_threads()
+        rayon::current_num_threads(),
+        cpu()
     );
     let image = film.to_image().unwrap();
     let base = status_bytes("VmRSS:");

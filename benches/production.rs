@@ -29,7 +29,7 @@
 
 mod common;
 
-use common::{gib, reset_peak, status_bytes};
+use common::{cpu, gib, reset_peak, status_bytes};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use vdbphoton::film::{Film, Region};
@@ -81,8 +81,9 @@ fn main() {
         .map(|(a, b)| (a.parse::<u32>().unwrap(), b.parse::<u32>().unwrap()))
         .unwrap();
     println!(
-        "{} threads, {w} x {h}, {budget} s per integrator",
-        rayon::current_num_threads()
+        "{} threads of {}, {w} x {h}, {budget} s per integrator",
+        rayon::current_num_threads(),
+        cpu()
     );
     for res in env("BENCH_RES", "1024").split(',') {
         let res: u32 = res.trim().parse().unwrap();

@@ -176,7 +176,13 @@ pub const REGISTRATION: super::Registration = super::Registration {
     peak_bytes: |desc| {
         let r = &desc.render;
         PhotonSettings::of(desc).map_or(0, |s| {
-            photons_for(&s, r.width, r.height) as u64 * PHOTON_PEAK_BYTES
+            let n = match s.photons {
+                Some(n) => n,
+                // The count the passes may grow to (the tuning that grows
+                // it is chosen later, by the pilot).
+                None => max_photons_in_pass(auto_photons(r.width, r.height)),
+            };
+            n as u64 * PHOTON_PEAK_BYTES
         })
     },
     header_keys: &[
@@ -217,6 +223,49 @@ pub fn photons_for(settings: &PhotonSettings, width: u32, height: u32) -> u32 {
         .unwrap_or_else(|| auto_photons(width, height))
 }
 
+/// Photons emitted in pass `pass` (0-based) when the count is automatic:
+/// `base` for the first [`GROW_FROM`] passes, then `base` times
+/// ((pass + 1) / GROW_FROM)^`growth`, at most [`max_photons_in_pass`].
+///
+/// Why grow: a pass's beam estimate gathers about the same number of
+/// photons along a ray whatever their count (the radii are set by the
+/// k nearest), so its variance hardly depends on the count, while its
+/// bias falls with the radius, r² ∝ N^(−2/3). The mean of P passes has a
+/// variance ∝ 1/P and keeps the bias, so past a few hundred passes the
+/// bias is what is left, and more photons a pass lower it where shrinking
+/// the radii (`alpha`) would raise each pass's variance instead. The bias
+/// and the variance of the mean fall together for N ∝ P^(3/4); √P grows
+/// more gently and measured as well. On the dense cloud under a sun
+/// (`benches/scenes/dense_sun.toml`, 160 x 120, 2 threads, `cargo bench
+/// --bench equal_time`, seeds 7 and 8; docs/performance.md) at 120 s:
+/// 10,000 photons in every pass 5.36e-4, growing as √P 4.51e-4 and
+/// 4.28e-4, as P^(3/4) 4.47e-4 and 4.53e-4, 25,000 in every pass 4.21e-4
+/// and 4.37e-4, the path tracer 4.31e-4 and 4.42e-4; α = 0.8 instead of
+/// 0.9 5.51e-4. At 10 s (about 250 passes) the count does not grow, so
+/// short renders keep their passes. On the Blender smoke + fire frame
+/// (`smoke_fire.toml`, thin: 1,300 passes in 30 s, where photons are
+/// cheap beside the camera rays), seed 7, fixed against growing as √P:
+/// 1.20e-5 and 1.14e-5 at 10 s, 7.64e-6 and 5.70e-6 at 30 s, 4.55e-6 and
+/// 3.56e-6 at 120 s (the path tracer 2.90e-5, 1.11e-5, 4.19e-6).
+pub fn photons_in_pass(base: u32, pass: u32, growth: f32) -> u32 {
+    let f = ((pass as f32 + 1.0) / GROW_FROM as f32).max(1.0).powf(growth);
+    ((base as f64 * f as f64).min(u32::MAX as f64) as u32).clamp(base, max_photons_in_pass(base))
+}
+
+/// The most photons [`photons_in_pass`] gives a pass of `base` photons,
+/// whatever the growth: [`MAX_GROWTH`] times `base`, but no more than
+/// [`MAX_AUTO_PHOTONS`] (a 4K frame's half a photon per pixel, which does
+/// not grow), since a pass's memory is its photons.
+pub fn max_photons_in_pass(base: u32) -> u32 {
+    (base as u64 * MAX_GROWTH as u64).min(MAX_AUTO_PHOTONS.max(base) as u64) as u32
+}
+
+/// Passes before the automatic photon count grows ([`photons_in_pass`]).
+const GROW_FROM: u32 = 256;
+
+/// The most an automatic photon count grows.
+const MAX_GROWTH: u32 = 8;
+
 /// Settings a render uses that suit dense and thin media differently:
 /// `k` and `alpha` as the scene gives them or, when absent, as
 /// [`Tuning::automatic`] chooses; the light samples a camera ray takes.
@@ -230,6 +279,9 @@ pub struct Tuning {
     /// How far the beam estimate flattens a kernel along the gradient of
     /// σs at most (`crate::photon::beam::flatten`; 1: spheres).
     pub max_squash: f32,
+    /// How the automatic photon count grows with the passes: the exponent
+    /// of [`photons_in_pass`] (0: the same in every pass).
+    pub growth: f32,
 }
 
 impl Tuning {
@@ -244,6 +296,7 @@ impl Tuning {
         alpha: 2.0 / 3.0,
         light_samples: 2,
         max_squash: 1.0,
+        growth: 0.5,
     };
     /// Dense, bright media, where a photon scatters many times: the map's
     /// error is mostly its noise (the phase function weighs the few photons
@@ -267,6 +320,7 @@ impl Tuning {
         alpha: 0.9,
         light_samples: 1,
         max_squash: 2.0,
+        growth: 0.5,
     };
 
     /// The tuning for media where a photon that scatters scatters on
@@ -585,13 +639,13 @@ impl Integrator for PhotonIntegrator {
         let Some(emitters) = &self.emitters else {
             return;
         };
-        let n = self.photons;
         let importance = self.importance.as_ref();
         let scale = match self.store {
             Some(s) => s,
             None => {
                 // A pilot, in a stream of its own, measures what storing
                 // every collision would keep.
+                let n = self.photons;
                 let pilot = (n / 32).max(256).min(n);
                 let st = measure(
                     world,
@@ -608,6 +662,10 @@ impl Integrator for PhotonIntegrator {
             }
         };
         let store = photon::Store { scale, importance };
+        let n = match self.settings.photons {
+            Some(n) => n,
+            None => photons_in_pass(self.photons, pass, self.tuning.growth),
+        };
         let (photons, st) = photon::trace(
             world,
             emitters,
@@ -678,6 +736,14 @@ impl Integrator for PhotonIntegrator {
             (
                 "vdbphoton/max_squash".into(),
                 format!("{}", self.tuning.max_squash),
+            ),
+            (
+                // The exponent of photons_in_pass (0 when `photons` is set).
+                "vdbphoton/photon_growth".into(),
+                format!(
+                    "{}",
+                    if s.photons.is_some() { 0.0 } else { self.tuning.growth }
+                ),
             ),
             (
                 "vdbphoton/scattering_order".into(),
@@ -875,5 +941,32 @@ impl PhotonIntegrator {
             res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
         }
         res
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_automatic_photon_count_grows_as_its_schedule_says() {
+        // The same count for the first GROW_FROM passes, and always
+        // without growth.
+        for pass in [0, 1, GROW_FROM - 1] {
+            assert_eq!(photons_in_pass(10_000, pass, 0.5), 10_000);
+        }
+        assert_eq!(photons_in_pass(10_000, 100_000, 0.0), 10_000);
+        // Then base · ((pass + 1) / GROW_FROM)^growth: 4x the passes, 2x
+        // the photons at √P, 16x the passes, 8x at P^(3/4).
+        assert_eq!(photons_in_pass(10_000, 4 * GROW_FROM - 1, 0.5), 20_000);
+        assert_eq!(photons_in_pass(10_000, 16 * GROW_FROM - 1, 0.75), 80_000);
+        // At most MAX_GROWTH times the base, and never past a 4K frame's
+        // automatic count: such a frame does not grow.
+        assert_eq!(photons_in_pass(10_000, u32::MAX, 1.0), 80_000);
+        let big = auto_photons(4096, 2160);
+        assert_eq!(big, MAX_AUTO_PHOTONS);
+        assert_eq!(photons_in_pass(big, u32::MAX, 1.0), big);
+        assert_eq!(photons_in_pass(1 << 21, u32::MAX, 1.0), MAX_AUTO_PHOTONS);
+        assert_eq!(max_photons_in_pass(10_000), 80_000);
     }
 }
