@@ -249,7 +249,8 @@ pub fn photons_for(settings: &PhotonSettings, width: u32, height: u32) -> u32 {
 /// 3.56e-6 at 120 s (the path tracer 2.90e-5, 1.11e-5, 4.19e-6).
 pub fn photons_in_pass(base: u32, pass: u32, growth: f32) -> u32 {
     let f = ((pass as f32 + 1.0) / GROW_FROM as f32).max(1.0).powf(growth);
-    ((base as f64 * f as f64).min(u32::MAX as f64) as u32).clamp(base, max_photons_in_pass(base))
+    // (A float-to-integer cast saturates.)
+    ((base as f64 * f as f64) as u32).clamp(base, max_photons_in_pass(base))
 }
 
 /// The most photons [`photons_in_pass`] gives a pass of `base` photons,
@@ -259,6 +260,10 @@ pub fn photons_in_pass(base: u32, pass: u32, growth: f32) -> u32 {
 pub fn max_photons_in_pass(base: u32) -> u32 {
     (base as u64 * MAX_GROWTH as u64).min(MAX_AUTO_PHOTONS.max(base) as u64) as u32
 }
+
+/// The exponent with which the automatic photon count grows with the
+/// passes ([`photons_in_pass`]), in dense and thin media alike.
+const PHOTON_GROWTH: f32 = 0.5;
 
 /// Passes before the automatic photon count grows ([`photons_in_pass`]).
 const GROW_FROM: u32 = 256;
@@ -279,9 +284,6 @@ pub struct Tuning {
     /// How far the beam estimate flattens a kernel along the gradient of
     /// σs at most (`crate::photon::beam::flatten`; 1: spheres).
     pub max_squash: f32,
-    /// How the automatic photon count grows with the passes: the exponent
-    /// of [`photons_in_pass`] (0: the same in every pass).
-    pub growth: f32,
 }
 
 impl Tuning {
@@ -296,7 +298,6 @@ impl Tuning {
         alpha: 2.0 / 3.0,
         light_samples: 2,
         max_squash: 1.0,
-        growth: 0.5,
     };
     /// Dense, bright media, where a photon scatters many times: the map's
     /// error is mostly its noise (the phase function weighs the few photons
@@ -320,7 +321,6 @@ impl Tuning {
         alpha: 0.9,
         light_samples: 1,
         max_squash: 2.0,
-        growth: 0.5,
     };
 
     /// The tuning for media where a photon that scatters scatters on
@@ -664,7 +664,7 @@ impl Integrator for PhotonIntegrator {
         let store = photon::Store { scale, importance };
         let n = match self.settings.photons {
             Some(n) => n,
-            None => photons_in_pass(self.photons, pass, self.tuning.growth),
+            None => photons_in_pass(self.photons, pass, PHOTON_GROWTH),
         };
         let (photons, st) = photon::trace(
             world,
@@ -742,7 +742,7 @@ impl Integrator for PhotonIntegrator {
                 "vdbphoton/photon_growth".into(),
                 format!(
                     "{}",
-                    if s.photons.is_some() { 0.0 } else { self.tuning.growth }
+                    if s.photons.is_some() { 0.0 } else { PHOTON_GROWTH }
                 ),
             ),
             (
