@@ -13,7 +13,7 @@ mod common;
 use glam::{DAffine3, Vec3};
 use vdbphoton::camera::Camera;
 use vdbphoton::film::{Film, Region};
-use vdbphoton::integrator::photon::{Estimate, PhotonSettings};
+use vdbphoton::integrator::photon::{Estimate, PhotonSettings, Sky};
 use vdbphoton::integrator::{Integrator, PathIntegrator, PhotonIntegrator};
 use vdbphoton::light::{EnvMap, Environment, Light};
 use vdbphoton::medium::{ExtraGrids, Material, Media, Principled, Volume};
@@ -124,17 +124,43 @@ fn log_slope(points: &[(f64, f64)]) -> f64 {
 #[test]
 fn white_furnace() {
     // A non-absorbing cloud in a uniform environment of radiance 1: every
-    // pixel is exactly 1, whatever the density. Four independent renders
-    // give each pixel's noise: every pixel's mean must be within 5 standard
-    // errors of 1 (plus 1 % for the kernel's bias at the cloud's edges),
-    // and the image mean within 0.5 %. A pixel's variance is pooled over
-    // its 3x3 neighbourhood, leaving out neighbours with none (the sky
-    // beside the cloud, exactly 1 in every render), which would otherwise
-    // make an edge pixel's noise look smaller than it is.
+    // pixel is exactly 1, whatever the density. Photons carry the sky's
+    // light here (`sky = "photons"`); `white_furnace_with_sky_paths` has
+    // camera paths carry it.
+    white_furnace_of(Sky::Photons, 24);
+}
+
+#[test]
+fn white_furnace_with_sky_paths() {
+    // The default for a constant sky: camera paths carry its light and the
+    // march the background it sees. Counting the sky twice (photons from it as well,
+    // or the paths adding what the camera ray sees before it scatters)
+    // makes the cloud brighter than 1; a path that missed the light of its
+    // later bounces, darker.
+    white_furnace_of(Sky::Auto, 64);
+}
+
+/// [`white_furnace`] with `sky` carrying the sky's light, `passes` passes:
+/// four independent renders give each pixel's noise; every pixel's mean
+/// must be within 5 standard errors of 1 (plus 1 % for the kernel's bias at
+/// the cloud's edges), and the image mean within 0.5 %. A pixel's variance
+/// is pooled over its 3x3 neighbourhood, leaving out neighbours with none
+/// (the sky beside the cloud, exactly 1 in every render), which would
+/// otherwise make an edge pixel's noise look smaller than it is.
+fn white_furnace_of(sky: Sky, passes: u32) {
     let w = world(vec![cloud(raw(0.0, 12.0, 0.5))], vec![], Rgb::ONE);
     let render = |seed| {
-        let mut ph = PhotonIntegrator::new(&w, settings(20_000), 100_000, seed).unwrap();
-        run(&w, &mut ph, seed, 24, false, |_, _| {}).mean_rgb()
+        let s = PhotonSettings {
+            sky,
+            ..settings(20_000)
+        };
+        let mut ph = PhotonIntegrator::new(&w, s, 100_000, seed).unwrap();
+        let film = run(&w, &mut ph, seed, passes, false, |_, _| {}).mean_rgb();
+        // No photons at all when the paths carry the only source, and
+        // then every sample traces one.
+        let want = if sky == Sky::Photons { 0.0 } else { 1.0 };
+        assert_eq!(ph.sky_share(), want);
+        film
     };
     let renders: Vec<Vec<Rgb>> = (1..=4).map(render).collect();
     let n = renders.len() as f32;
@@ -406,6 +432,9 @@ struct Case {
     world: World,
     max_bounces: u32,
     bound: f64,
+    /// Who carries the environment's light, and the share of camera
+    /// samples that trace it then (`PhotonIntegrator::sky_share`).
+    sky: (Sky, f32),
 }
 
 fn cases() -> Vec<Case> {
@@ -443,12 +472,14 @@ fn cases() -> Vec<Case> {
             world: world(vec![cloud(raw(0.5, 3.0, 0.0))], sun(), Rgb::splat(0.1)),
             max_bounces: 64,
             bound: 2e-3,
+            sky: (Sky::Auto, 1.0),
         },
         Case {
             name: "dense, g = 0.8, sun and sky",
             world: world(vec![cloud(raw(0.1, 40.0, 0.8))], sun(), Rgb::splat(0.1)),
             max_bounces: 1024,
             bound: 1e-2,
+            sky: (Sky::Auto, 0.5),
         },
         Case {
             name: "spot light",
@@ -465,6 +496,7 @@ fn cases() -> Vec<Case> {
             ),
             max_bounces: 256,
             bound: 4e-3,
+            sky: (Sky::Auto, 0.0),
         },
         Case {
             name: "environment only",
@@ -475,12 +507,25 @@ fn cases() -> Vec<Case> {
             ),
             max_bounces: 256,
             bound: 2e-3,
+            sky: (Sky::Auto, 1.0),
+        },
+        Case {
+            name: "environment only, photons carry it",
+            world: world(
+                vec![cloud(raw(0.3, 12.0, 0.5))],
+                vec![],
+                Rgb::new(0.8, 0.9, 1.0),
+            ),
+            max_bounces: 256,
+            bound: 2e-3,
+            sky: (Sky::Photons, 0.0),
         },
         Case {
             name: "blackbody fire",
             world: world(vec![fire_volume], vec![], Rgb::ZERO),
             max_bounces: 64,
             bound: 4e-3,
+            sky: (Sky::Auto, 0.0),
         },
     ]
 }
@@ -509,7 +554,11 @@ fn check_convergence(case: &Case) {
     let reference: Vec<Rgb> = ra.iter().zip(&rb).map(|(a, b)| (*a + *b) * 0.5).collect();
     let noise = rel_mse(&ra, &rb) / 4.0;
     assert!(mean(&reference) > 1e-3, "{}: a black image", case.name);
-    let mut ph = PhotonIntegrator::new(w, settings(40_000), case.max_bounces, 9).unwrap();
+    let s = PhotonSettings {
+        sky: case.sky.0,
+        ..settings(40_000)
+    };
+    let mut ph = PhotonIntegrator::new(w, s, case.max_bounces, 9).unwrap();
     let mut errors = Vec::new();
     let last = run(w, &mut ph, 9, 32, false, |p, f| {
         if p.is_power_of_two() {
@@ -517,6 +566,12 @@ fn check_convergence(case: &Case) {
         }
     })
     .mean_rgb();
+    assert_eq!(
+        ph.sky_share(),
+        case.sky.1,
+        "{}: sky paths' share",
+        case.name
+    );
     let e = rel_mse(&last, &reference) - noise;
     let slope = log_slope(&errors);
     let ratio = mean(&last) / mean(&reference);
@@ -592,6 +647,7 @@ fn converges_to_the_path_tracer_under_a_point_light_and_a_map() {
             max_bounces: 256,
             // Measured 7.0e-4, slope −0.96, mean ratio 0.984.
             bound: 2e-3,
+            sky: (Sky::Auto, 0.0),
         },
         Case {
             name: "environment map",
@@ -599,6 +655,7 @@ fn converges_to_the_path_tracer_under_a_point_light_and_a_map() {
             max_bounces: 256,
             // Measured 1.7e-3, slope −0.85, mean ratio 0.989.
             bound: 4e-3,
+            sky: (Sky::Auto, 0.0),
         },
     ];
     for case in &cases {

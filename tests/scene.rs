@@ -506,7 +506,7 @@ fn error_spp_zero() {
 
 #[test]
 fn photon_keys() {
-    use vdbphoton::integrator::photon::{Estimate, PhotonSettings};
+    use vdbphoton::integrator::photon::{Estimate, PhotonSettings, Sky};
     let want = PhotonSettings {
         photons: Some(5000),
         k: Some(12),
@@ -514,6 +514,7 @@ fn photon_keys() {
         alpha: Some(0.5),
         step: Some(0.01),
         estimate: Estimate::Point,
+        sky: Sky::Auto,
     };
     let keys =
         "photons = 5000\nk = 12\nradius = 0.25\nalpha = 0.5\nstep = 0.01\nestimate = \"point\"\n";
@@ -560,6 +561,22 @@ fn photon_keys() {
         assert!(flat.ends_with(want.split_once(": ").unwrap().1), "{flat}");
     }
     assert!(toml_err(&format!("[render.photon]\nestimate = \"cone\"\n{VOL}")).contains("beam"));
+    // Who carries the sky's light: by default camera paths for a constant
+    // sky and photons for a map; or either.
+    for (text, want) in [
+        ("photons", Sky::Photons),
+        ("paths", Sky::Paths),
+        ("auto", Sky::Auto),
+    ] {
+        let sky = ok(&format!("[render.photon]\nsky = \"{text}\"\n{VOL}"));
+        assert_eq!(PhotonSettings::of(&sky).unwrap().sky, want);
+    }
+    let e = toml_err(&format!("[render.photon]\nsky = \"both\"\n{VOL}"));
+    assert!(
+        e.starts_with("scene.toml:2: key 'sky' in [render.photon]")
+            && e.contains("auto, paths, photons"),
+        "{e}"
+    );
     let e = toml_err(&format!("[render]\nintegrator = \"bdpt\"\n{VOL}"));
     assert!(
         e.starts_with("scene.toml:2: ") && e.contains("auto, path, photon"),

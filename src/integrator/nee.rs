@@ -5,6 +5,7 @@
 //! integrator's marcher (single scattering, without MIS: it samples no
 //! direction).
 
+use crate::light::Environment;
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, Rng};
 use crate::tracking;
@@ -12,13 +13,83 @@ use crate::world::World;
 use crate::Rgb;
 use glam::Vec3;
 
-/// Light arriving at `p` (at `time`) along each light's sample, times the
+/// Which of a world's sources a path or a light sample takes, and how.
+/// The photon integrator may leave the environment's light to camera paths
+/// (`super::photon::Sky::Paths`): its march and photons then take the
+/// lights without it, and those paths the environment alone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sources {
+    /// The lights (suns, spots, points).
+    pub lights: bool,
+    /// The environment.
+    pub environment: EnvLight,
+}
+
+/// How a path takes the environment's light.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EnvLight {
+    /// Not at all.
+    Off,
+    /// Sampled at each scattering event and found by the rays that escape,
+    /// weighted by multiple importance sampling (an environment map, whose
+    /// bright spots only light samples find well).
+    Sampled,
+    /// Found only by the rays that escape: no light samples. For a constant
+    /// environment a light sample's shadow ray costs more than it gains
+    /// (docs/performance.md, "Sky light by paths").
+    Escaped,
+}
+
+impl Sources {
+    /// The lights and the environment.
+    pub const ALL: Sources = Sources {
+        lights: true,
+        environment: EnvLight::Sampled,
+    };
+
+    /// The lights and `world`'s environment as a path takes it best: a
+    /// constant one by escaping rays alone, a map also sampled.
+    pub fn of(world: &World) -> Sources {
+        Sources {
+            lights: true,
+            environment: EnvLight::of(world),
+        }
+    }
+
+    /// `world`'s environment alone, as [`Self::of`] takes it.
+    pub fn environment_of(world: &World) -> Sources {
+        Sources {
+            lights: false,
+            environment: EnvLight::of(world),
+        }
+    }
+
+    /// The lights alone.
+    pub const LIGHTS: Sources = Sources {
+        lights: true,
+        environment: EnvLight::Off,
+    };
+}
+
+impl EnvLight {
+    /// How a path takes `world`'s environment best.
+    pub fn of(world: &World) -> EnvLight {
+        match &world.environment {
+            e if e.is_black() => EnvLight::Off,
+            Environment::Constant(_) => EnvLight::Escaped,
+            Environment::Map(_) => EnvLight::Sampled,
+        }
+    }
+}
+
+/// Light arriving at `p` (at `time`) from `sources` along each one's sample, times the
 /// phase function and the transmittance, for NEE from a scattering event.
 /// With
 /// `mis`, lights a phase-sampled ray can also hit are weighted by the power
 /// heuristic against phase sampling (the path tracer); without, the light
 /// sample is the whole estimate (the photon integrator's marcher, which
 /// samples no direction).
+#[allow(clippy::too_many_arguments)]
 pub fn direct_light(
     world: &World,
     p: Vec3,
@@ -26,11 +97,17 @@ pub fn direct_light(
     wo: Vec3,
     phase: &crate::phase::PhaseFunction,
     mis: bool,
+    sources: Sources,
     rng: &mut Rng,
 ) -> Rgb {
     let media = &world.media;
     let mut l = Rgb::ZERO;
-    for light in &world.lights {
+    let lights = if sources.lights {
+        world.lights.as_slice()
+    } else {
+        &[]
+    };
+    for light in lights {
         let u = rng.next_vec2();
         let Some(ls) = light.sample_li(p, u) else {
             continue;
@@ -53,7 +130,7 @@ pub fn direct_light(
         };
         l += ls.li * tr * (f * w / ls.pdf);
     }
-    if !world.environment.is_black() {
+    if sources.environment == EnvLight::Sampled && !world.environment.is_black() {
         if let Some((wi, le, pdf)) = world.environment.sample(rng.next_vec2()) {
             if pdf > 0.0 && le.max_element() > 0.0 {
                 let f = phase.eval(wo, wi);

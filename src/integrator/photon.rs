@@ -19,6 +19,15 @@
 //!   has scattered at least once: with the beam estimate one BVH traversal
 //!   along the marched part of the ray, with the point estimate a k-nearest
 //!   query at every step;
+//! - a constant environment's light, by default ([`Sky::Auto`]), comes from a
+//!   camera path instead (`super::path::trace_from`, the environment
+//!   alone, from the camera ray's first scattering on), at every sample or
+//!   at a share of them ([`Tuning::sky_paths`]); photons then come from the
+//!   lights and the glowing media only, and the march's single scattering
+//!   samples the lights only. Under a diffuse sky a path escapes to it as
+//!   soon as it leaves the volumes, a near-furnace case where its variance
+//!   is small, while a photon map's estimate keeps its kernels' noise: the
+//!   estimators split the light by source, each taking what it is good at;
 //! - the march ends with Russian roulette once the transmittance is small.
 //!
 //! Progressive: pass i (from 1) shrinks the photons' radii by
@@ -34,8 +43,9 @@
 //! (from a pilot of 1/32 of the photons before the first pass), so the map
 //! stays the same size and the image stays deterministic.
 
-use super::nee::direct_light;
+use super::nee::{direct_light, EnvLight, Sources};
 use super::{param, Integrator, SampleKey, SampleResult};
+use crate::light::Environment;
 use crate::photon::beam::{flatten, BeamMap, RATIO_MAX};
 use crate::photon::emitter::Emitters;
 use crate::photon::importance::Importance;
@@ -93,6 +103,25 @@ pub struct PhotonSettings {
     pub step: Option<f32>,
     /// The photon estimate (`estimate`).
     pub estimate: Estimate,
+    /// Who carries the environment's light (`sky`).
+    pub sky: Sky,
+}
+
+/// Who carries the environment's light in the photon integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sky {
+    /// [`Sky::Paths`] for a constant environment, [`Sky::Photons`] for a
+    /// map: a map's bright spots are small lights, which photons carry well
+    /// (measured only for constant skies: docs/performance.md, "Sky light
+    /// by paths").
+    Auto,
+    /// Camera paths, as the path tracer traces them but taking the
+    /// environment's light alone (`path::trace_from`), at a share of the
+    /// camera samples ([`Tuning::sky_paths`]); photons come from the lights
+    /// and the media only.
+    Paths,
+    /// Photons, as every other source.
+    Photons,
 }
 
 impl Default for PhotonSettings {
@@ -104,6 +133,7 @@ impl Default for PhotonSettings {
             alpha: None,
             step: None,
             estimate: Estimate::Beam,
+            sky: Sky::Auto,
         }
     }
 }
@@ -140,6 +170,12 @@ impl PhotonSettings {
                 Some("point") => Estimate::Point,
                 Some(_) => Estimate::Beam,
             },
+            sky: match param::choice(p, "sky", &["auto", "paths", "photons"])? {
+                None => d.sky,
+                Some("photons") => Sky::Photons,
+                Some("paths") => Sky::Paths,
+                Some(_) => Sky::Auto,
+            },
         })
     }
 
@@ -162,6 +198,7 @@ pub const REGISTRATION: super::Registration = super::Registration {
         ("alpha", "progressive radius reduction, in (0, 1] (default: from the pilot)"),
         ("step", "march step, world units (default: the finest voxel)"),
         ("estimate", "\"beam\" (default) or \"point\""),
+        ("sky", "who carries the environment's light: \"auto\" (default: paths for a constant sky, photons for a map), \"paths\" (camera paths; photons from the lights and fire only) or \"photons\""),
     ],
     check: |p| PhotonSettings::from_params(p).map(|_| ()),
     build: |desc, world| {
@@ -191,6 +228,7 @@ pub const REGISTRATION: super::Registration = super::Registration {
         "vdbphoton/alpha",
         "vdbphoton/estimate",
         "vdbphoton/step",
+        "vdbphoton/sky_paths",
     ],
 };
 
@@ -284,6 +322,12 @@ pub struct Tuning {
     /// How far the beam estimate flattens a kernel along the gradient of
     /// σs at most (`crate::photon::beam::flatten`; 1: spheres).
     pub max_squash: f32,
+    /// The share of camera samples that trace a path for the environment's
+    /// light ([`Sky::Paths`]), each weighted by its inverse. Below 1 the
+    /// choice itself adds variance (a one-sample estimate of a part of the
+    /// image that a path gives with little noise), so it pays only where
+    /// paths are long and photons cheap by comparison.
+    pub sky_paths: f32,
 }
 
 impl Tuning {
@@ -298,6 +342,9 @@ impl Tuning {
         alpha: 2.0 / 3.0,
         light_samples: 2,
         max_squash: 1.0,
+        // Half the samples: relMSE 2-3 times as high at 10 s on the
+        // equal-time bench's thin clouds under a sun and a sky.
+        sky_paths: 1.0,
     };
     /// Dense, bright media, where a photon scatters many times: the map's
     /// error is mostly its noise (the phase function weighs the few photons
@@ -321,6 +368,10 @@ impl Tuning {
         alpha: 0.9,
         light_samples: 1,
         max_squash: 2.0,
+        // dense_sun at 10 s (2 threads, seeds 7 and 8): relMSE 1.35e-3
+        // with every sample, 1.16e-3 with half, 1.28e-3 and 1.41e-3 with
+        // 0.35 and 0.25 (photons carrying the sky: 2.30e-3).
+        sky_paths: 0.5,
     };
 
     /// The tuning for media where a photon that scatters scatters on
@@ -447,6 +498,10 @@ pub struct PhotonIntegrator {
     max_bounces: u32,
     seed: u64,
     emitters: Option<Emitters>,
+    /// What camera paths take of the environment's light when they carry
+    /// it ([`Sky::Paths`] with an environment that shines): a constant one
+    /// found by escaping rays alone, a map also sampled.
+    sky_paths: Option<Sources>,
     step: f32,
     /// The shortest step (the finest voxel over MAX_STEPS_PER_VOXEL).
     min_step: f32,
@@ -562,12 +617,20 @@ impl PhotonIntegrator {
     ) -> crate::error::Result<Self> {
         let finest = super::albedo::step(world);
         let step = settings.step.unwrap_or(finest);
+        let paths = match settings.sky {
+            Sky::Auto => matches!(world.environment, Environment::Constant(_)),
+            Sky::Paths => true,
+            Sky::Photons => false,
+        };
+        let sky_paths =
+            (paths && !world.environment.is_black()).then(|| Sources::environment_of(world));
         Ok(Self {
             settings,
             photons: photons_for(&settings, world.camera.width(), world.camera.height()),
             max_bounces,
             seed,
-            emitters: Emitters::new(world),
+            emitters: Emitters::with(world, sky_paths.is_none()),
+            sky_paths,
             min_step: finest / MAX_STEPS_PER_VOXEL,
             importance: Importance::from_camera(world, step),
             step,
@@ -585,6 +648,17 @@ impl PhotonIntegrator {
     /// What the passes so far did.
     pub fn totals(&self) -> PhotonTotals {
         self.totals
+    }
+
+    /// The share of camera samples that trace a path for the environment's
+    /// light: 0 when photons carry it, every sample when no photons are
+    /// traced at all (nothing else to spend the time on).
+    pub fn sky_share(&self) -> f32 {
+        match (self.sky_paths, &self.emitters) {
+            (None, _) => 0.0,
+            (Some(_), None) => 1.0,
+            (Some(_), Some(_)) => self.tuning.sky_paths,
+        }
     }
 
     /// The scale of the storage probability that keeps about
@@ -714,11 +788,25 @@ impl Integrator for PhotonIntegrator {
     }
 
     fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, _key: SampleKey) -> SampleResult {
-        STEPS.with(|s| {
+        let mut res = STEPS.with(|s| {
             let mut steps = s.borrow_mut();
             steps.clear();
             self.march(world, ray, rng, &mut steps)
-        })
+        });
+        if let Some(sources) = self.sky_paths {
+            // The environment's light, from a path at a share of the
+            // samples (a one-sample estimate: weighted by its inverse);
+            // every sample when no photons are traced at all.
+            let share = self.sky_share();
+            if share >= 1.0 || rng.next_f32() < share {
+                let p = super::path::trace_from(world, self.max_bounces, ray, rng, sources);
+                let w = 1.0 / share;
+                res.l += p.l * w;
+                res.direct += p.direct * w;
+                res.indirect += p.indirect * w;
+            }
+        }
+        res
     }
 
     fn attributes(&self) -> Vec<(String, String)> {
@@ -751,6 +839,12 @@ impl Integrator for PhotonIntegrator {
             ),
             ("vdbphoton/step".into(), format!("{}", self.step)),
             ("vdbphoton/estimate".into(), s.estimate.name().into()),
+            (
+                // The share of camera samples that trace the environment's
+                // light (0: photons carry it).
+                "vdbphoton/sky_paths".into(),
+                format!("{}", self.sky_share()),
+            ),
             ("vdbphoton/radius".into(), format!("{}", t.r_max)),
         ];
         if let Some(p) = self.store {
@@ -867,7 +961,15 @@ impl PhotonIntegrator {
         // Single scattering at `light_samples` steps chosen by
         // T·σs·(1 − e^{−σtΔ})/σt, stratified over its cumulative sum.
         let total: f32 = steps.iter().map(|s| luminance(s.w * s.sigma_s)).sum();
-        if total > 0.0 && (!world.lights.is_empty() || !world.environment.is_black()) {
+        // The march's light samples take the environment unless paths do.
+        let sources = if self.sky_paths.is_some() {
+            Sources::LIGHTS
+        } else {
+            Sources::ALL
+        };
+        let any_source = !world.lights.is_empty()
+            || (sources.environment != EnvLight::Off && !world.environment.is_black());
+        if total > 0.0 && any_source {
             let m = self.tuning.light_samples;
             let u0 = rng.next_f32();
             let mut acc = 0.0f32;
@@ -880,7 +982,7 @@ impl PhotonIntegrator {
                     let prob = c / total;
                     if prob > 0.0 {
                         let phase = media.phase_at(s.p, time, rng.next_f32());
-                        let ls = direct_light(world, s.p, time, wo, &phase, false, rng);
+                        let ls = direct_light(world, s.p, time, wo, &phase, false, sources, rng);
                         res.direct += s.w * s.sigma_s * ls / (prob * m as f32);
                     }
                 }

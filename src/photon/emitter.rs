@@ -72,6 +72,12 @@ impl Emitters {
     /// The sources of `world`; `None` when nothing emits towards the
     /// volumes.
     pub fn new(world: &World) -> Option<Self> {
+        Self::with(world, true)
+    }
+
+    /// [`Self::new`], with or without the environment (which the photon
+    /// integrator may leave to camera paths).
+    pub fn with(world: &World, environment: bool) -> Option<Self> {
         let (lo, hi) = world.media.bounds()?;
         let bounds = BoundingSphere::of_box(lo, hi);
         let mut sources = Vec::new();
@@ -83,7 +89,7 @@ impl Emitters {
                 power.push(p);
             }
         }
-        if !world.environment.is_black() {
+        if environment && !world.environment.is_black() {
             let p = world.environment.power(bounds);
             if avg(p) > 0.0 {
                 sources.push(Source::Environment);
