@@ -466,6 +466,13 @@ fn cases() -> Vec<Case> {
         )
         .unwrap()
     };
+    let sky_only = || {
+        world(
+            vec![cloud(raw(0.3, 12.0, 0.5))],
+            vec![],
+            Rgb::new(0.8, 0.9, 1.0),
+        )
+    };
     vec![
         Case {
             name: "thin, isotropic, sun and sky",
@@ -500,22 +507,14 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "environment only",
-            world: world(
-                vec![cloud(raw(0.3, 12.0, 0.5))],
-                vec![],
-                Rgb::new(0.8, 0.9, 1.0),
-            ),
+            world: sky_only(),
             max_bounces: 256,
             bound: 2e-3,
             sky: (Sky::Auto, 1.0),
         },
         Case {
             name: "environment only, photons carry it",
-            world: world(
-                vec![cloud(raw(0.3, 12.0, 0.5))],
-                vec![],
-                Rgb::new(0.8, 0.9, 1.0),
-            ),
+            world: sky_only(),
             max_bounces: 256,
             bound: 2e-3,
             sky: (Sky::Photons, 0.0),

@@ -5,7 +5,7 @@
 //! integrator's marcher (single scattering, without MIS: it samples no
 //! direction).
 
-use crate::light::Environment;
+use crate::light::{Environment, Light};
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, Rng};
 use crate::tracking;
@@ -69,6 +69,15 @@ impl Sources {
         lights: true,
         environment: EnvLight::Off,
     };
+
+    /// `world`'s lights, if these sources take them.
+    pub fn lights_of(self, world: &World) -> &[Light] {
+        if self.lights {
+            &world.lights
+        } else {
+            &[]
+        }
+    }
 }
 
 impl EnvLight {
@@ -102,12 +111,7 @@ pub fn direct_light(
 ) -> Rgb {
     let media = &world.media;
     let mut l = Rgb::ZERO;
-    let lights = if sources.lights {
-        world.lights.as_slice()
-    } else {
-        &[]
-    };
-    for light in lights {
+    for light in sources.lights_of(world) {
         let u = rng.next_vec2();
         let Some(ls) = light.sample_li(p, u) else {
             continue;

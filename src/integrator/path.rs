@@ -120,12 +120,7 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32, sources: Sources) -> Rgb {
         }
         EnvLight::Escaped => l += world.environment.le(w),
     }
-    let lights = if sources.lights {
-        world.lights.as_slice()
-    } else {
-        &[]
-    };
-    for light in lights {
+    for light in sources.lights_of(world) {
         if let Light::Sun { .. } = light {
             let (le, pdf) = light.le_escaped(w);
             if pdf > 0.0 {

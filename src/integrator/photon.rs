@@ -45,7 +45,6 @@
 
 use super::nee::{direct_light, EnvLight, Sources};
 use super::{param, Integrator, SampleKey, SampleResult};
-use crate::light::Environment;
 use crate::photon::beam::{flatten, BeamMap, RATIO_MAX};
 use crate::photon::emitter::Emitters;
 use crate::photon::importance::Importance;
@@ -617,13 +616,15 @@ impl PhotonIntegrator {
     ) -> crate::error::Result<Self> {
         let finest = super::albedo::step(world);
         let step = settings.step.unwrap_or(finest);
+        // `auto`: paths where a path finds the sky by escaping alone (a
+        // constant one), photons for a map.
+        let env = EnvLight::of(world);
         let paths = match settings.sky {
-            Sky::Auto => matches!(world.environment, Environment::Constant(_)),
-            Sky::Paths => true,
+            Sky::Auto => env == EnvLight::Escaped,
+            Sky::Paths => env != EnvLight::Off,
             Sky::Photons => false,
         };
-        let sky_paths =
-            (paths && !world.environment.is_black()).then(|| Sources::environment_of(world));
+        let sky_paths = paths.then(|| Sources::environment_of(world));
         Ok(Self {
             settings,
             photons: photons_for(&settings, world.camera.width(), world.camera.height()),
