@@ -901,3 +901,77 @@ fn tuning_follows_the_scattering_order() {
         ("40".to_string(), d.alpha.to_string())
     );
 }
+
+/// Photons from glowing media start where the emission is, in proportion
+/// to it down to about a voxel: their mean power is the media's emitted
+/// power 4π·∫ε dV (a closed form for trilinear lookups: the sum of the
+/// voxels' values times a voxel's volume), and their spread is small even
+/// where the emission falls by orders of magnitude within a majorant cell,
+/// as fire's does. A photon from a uniform point of its cell (the cell
+/// chosen by its mean) carries a power that varies with the emission there:
+/// E[Φ²]/E[Φ]² was 7.0 on this volume, 1.19 with boxes of a voxel.
+#[test]
+fn media_photons_carry_the_emitted_power_evenly() {
+    use glam::IVec3;
+    use vdbphoton::grid::{Grid, GridParts};
+    use vdbphoton::photon::emitter::Emitters;
+    use vdbphoton::sampling::{Domain, Rng};
+    let scale = 0.1;
+    let xf = DAffine3::from_scale(glam::DVec3::splat(scale));
+    let mut parts = GridParts::new("density", 0.0f32, xf);
+    let mut sum = 0.0f64;
+    for b in 0..8 {
+        let origin = IVec3::new(b & 1, (b >> 1) & 1, b >> 2) * 8;
+        let mut mask = [0u64; 8];
+        for v in 0..512usize {
+            let ijk = origin + IVec3::new((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
+            let r = (ijk.as_vec3() - Vec3::splat(7.5)).length() / 7.0;
+            let value = 100.0 * (1.0 - r).max(0.0).powi(8);
+            if value > 0.0 {
+                mask[v >> 6] |= 1 << (v & 63);
+            }
+            parts.values.push(value);
+            sum += value as f64;
+        }
+        parts.brick_origins.push(origin);
+        parts.masks.push(mask);
+    }
+    let grid = Grid::from_parts(parts).unwrap();
+    let emission = 0.7;
+    let material = Material::Raw {
+        sigma_a: Rgb::splat(0.5),
+        sigma_s: Rgb::splat(0.5),
+        emission: Rgb::splat(emission),
+        phase: PhaseFunction::Isotropic,
+    };
+    let fire = Volume::new(
+        "fire",
+        grid,
+        ExtraGrids::default(),
+        material,
+        DAffine3::IDENTITY,
+    )
+    .unwrap();
+    let w = world(vec![fire], vec![], Rgb::ZERO);
+    let exact = 4.0 * std::f64::consts::PI * emission as f64 * sum * scale.powi(3);
+    let e = Emitters::new(&w).unwrap();
+    let n = 200_000;
+    let (mut s1, mut s2) = (0.0f64, 0.0f64);
+    for i in 0..n {
+        let mut rng = Rng::new(Domain::Photon, 9, 0, i);
+        if let Some(ph) = e.sample(&w, 0.0, &mut rng) {
+            assert!(ph.from_media);
+            let p = ph.ray.power.x as f64;
+            s1 += p;
+            s2 += p * p;
+        }
+    }
+    let mean = s1 / n as f64;
+    let spread = s2 / n as f64 / (mean * mean);
+    let sigma = (spread - 1.0).max(0.0).sqrt() * mean / (n as f64).sqrt();
+    assert!(
+        (mean - exact).abs() < 4.0 * sigma + 1e-3 * exact,
+        "mean power {mean} against {exact} (σ {sigma})"
+    );
+    assert!(spread < 1.5, "E[Φ²]/E[Φ]² = {spread}");
+}
