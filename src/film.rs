@@ -171,13 +171,20 @@ pub struct Film {
     aovs: Option<Vec<AovSums>>,
     /// Sums of the denoising albedo, when the render is denoised.
     albedo: Option<Vec<Rgb>>,
+    /// Radiance sums of every other sample (the 2nd, 4th, ...), when the
+    /// render is denoised: one half of the samples, independent of the
+    /// other half (a pass has one sample a pixel, so the halves take
+    /// alternate passes, photon maps included); the denoiser measures its
+    /// own error with them (`crate::denoise::blend`).
+    half: Option<Vec<Rgb>>,
     /// Samples per pixel so far.
     samples: Vec<u32>,
 }
 
 impl Film {
-    /// Bytes per pixel the denoising albedo adds ([`Self::with_albedo`]).
-    pub const ALBEDO_BYTES: usize = std::mem::size_of::<Rgb>();
+    /// Bytes per pixel the denoising albedo and half sums add at most
+    /// ([`Self::with_albedo`], [`Self::with_half`]).
+    pub const DENOISE_BYTES: usize = 2 * std::mem::size_of::<Rgb>();
 
     /// An empty film over `region` of a `width` x `height` image, with AOV
     /// sums when `aovs`.
@@ -191,6 +198,7 @@ impl Film {
             transmittance: vec![0.0; n],
             aovs: aovs.then(|| vec![AovSums::default(); n]),
             albedo: None,
+            half: None,
             samples: vec![0; n],
         }
     }
@@ -205,6 +213,22 @@ impl Film {
         }
     }
 
+    /// The film also keeps the radiance of every other sample, written as
+    /// the layer `half` (their mean) once every pixel has two samples:
+    /// the denoiser then measures its own error (`crate::denoise::blend`).
+    pub fn with_half(self) -> Self {
+        let n = self.samples.len();
+        Self {
+            half: Some(vec![Rgb::ZERO; n]),
+            ..self
+        }
+    }
+
+    /// Whether the film keeps the half sums.
+    pub fn has_half(&self) -> bool {
+        self.half.is_some()
+    }
+
     /// Whether the film keeps the denoising albedo.
     pub fn has_albedo(&self) -> bool {
         self.albedo.is_some()
@@ -213,7 +237,7 @@ impl Film {
     /// Bytes a film of `pixels` pixels takes, for memory checks before a
     /// render.
     /// Bytes a film of `pixels` pixels takes (with the AOVs when `aovs`);
-    /// a film [`Self::with_albedo`] takes [`Self::ALBEDO_BYTES`] a pixel
+    /// a denoised render's film takes [`Self::DENOISE_BYTES`] a pixel
     /// more.
     pub fn bytes_for(pixels: usize, aovs: bool) -> usize {
         pixels
@@ -242,6 +266,9 @@ impl Film {
         let finite = s.l.is_finite();
         if finite {
             self.l[i] += s.l.as_dvec3();
+            if let (Some(h), 1) = (&mut self.half, self.samples[i] % 2) {
+                h[i] += s.l;
+            }
         }
         self.transmittance[i] += s.transmittance as f64;
         self.samples[i] += 1;
@@ -272,9 +299,14 @@ impl Film {
                 x.emission += y.emission;
             }
         }
-        if let (Some(a), Some(b)) = (&mut self.albedo, &other.albedo) {
-            for (x, y) in a.iter_mut().zip(b) {
-                *x += *y;
+        for (mine, theirs) in [
+            (&mut self.albedo, &other.albedo),
+            (&mut self.half, &other.half),
+        ] {
+            if let (Some(a), Some(b)) = (mine, theirs) {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += *y;
+                }
             }
         }
         Ok(())
@@ -291,11 +323,12 @@ impl Film {
         n * (3 * 8 + 8 + 4)
             + self.aovs.as_ref().map_or(0, |_| n * 9 * 4)
             + self.albedo.as_ref().map_or(0, |_| n * 3 * 4)
+            + self.half.as_ref().map_or(0, |_| n * 3 * 4)
     }
 
     /// Writes every sum and count, little-endian, bit for bit (a resumed
     /// render's film, `crate::render::resume`): radiance, transmittance,
-    /// counts, then the AOVs and the albedo when kept.
+    /// counts, then the AOVs and the albedo and half sums when kept.
     pub fn write_sums(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
         fn put<T, const N: usize>(
             w: &mut impl std::io::Write,
@@ -335,7 +368,7 @@ impl Film {
                 f32s(b, s.emission);
             })?;
         }
-        if let Some(a) = &self.albedo {
+        for a in [&self.albedo, &self.half].into_iter().flatten() {
             put::<_, 12>(w, a, |c, b| f32s(b, *c))?;
         }
         Ok(())
@@ -381,7 +414,7 @@ impl Film {
                 emission: rgb_at(s, 6),
             })?;
         }
-        if let Some(a) = &mut self.albedo {
+        for a in [&mut self.albedo, &mut self.half].into_iter().flatten() {
             get::<_, 12>(r, a, |s| rgb_at(s, 0))?;
         }
         Ok(())
@@ -428,7 +461,7 @@ impl Film {
     /// The means as an image of the region, placed in the whole image (its
     /// data window): RGBA (alpha = 1 − the transmittance along the camera
     /// ray) and, when kept, the AOV layers `direct`, `indirect`, `emission`
-    /// and `transmittance`.
+    /// and `transmittance`, and the denoiser's `albedo` and `half`.
     pub fn to_image(&self) -> Result<Image, ImageError> {
         let (w, h) = (self.region.width() as usize, self.region.height() as usize);
         let tr = self.mean_transmittance();
@@ -464,10 +497,54 @@ impl Film {
                 layer.set(i % w, i / w, &(*s * self.inv(i) as f32).to_array());
             }
         }
+        // The half's mean needs a sample in it everywhere.
+        if let (Some(h), true) = (&self.half, self.min_samples() >= 2) {
+            let layer = image.add_rgb_layer(crate::denoise::HALF_LAYER)?;
+            for (i, s) in h.iter().enumerate() {
+                let n = self.samples[i] / 2;
+                layer.set(i % w, i / w, &(*s / n as f32).to_array());
+            }
+        }
         image.set_window(
             (self.region.x0 as usize, self.region.y0 as usize),
             (self.width as usize, self.height as usize),
         )?;
         Ok(image)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `half` layer is the mean of every other sample (the 2nd, 4th,
+    /// ...: alternate passes), and it is written only once every pixel has
+    /// two samples, so that it is a mean everywhere.
+    #[test]
+    fn the_half_layer_is_the_mean_of_every_other_sample() {
+        let mut film = Film::new(2, 1, Region::full(2, 1), false).with_half();
+        let sample = |v: f32| SampleResult {
+            l: Rgb::splat(v),
+            ..SampleResult::default()
+        };
+        for v in [1.0, 2.0, 3.0, 4.0, 5.0] {
+            film.add(0, 0, &sample(v));
+        }
+        film.add(1, 0, &sample(7.0));
+        let half = crate::denoise::HALF_LAYER;
+        assert!(film.to_image().unwrap().layer(half).is_none());
+        film.add(1, 0, &sample(9.0));
+        let image = film.to_image().unwrap();
+        let layer = image.layer(half).unwrap();
+        assert_eq!(layer.get(0, 0), &[3.0, 3.0, 3.0]);
+        assert_eq!(layer.get(1, 0), &[9.0, 9.0, 9.0]);
+        assert_eq!(image.get(0, 0).x, 3.0);
+        // Kept in the resume state, bit for bit.
+        let mut bytes = Vec::new();
+        film.write_sums(&mut bytes).unwrap();
+        assert_eq!(bytes.len() as u64, film.sums_bytes());
+        let mut back = Film::new(2, 1, Region::full(2, 1), false).with_half();
+        back.read_sums(&mut bytes.as_slice()).unwrap();
+        assert_eq!(back, film);
     }
 }

@@ -187,10 +187,18 @@ pub fn merge(out: &Path, inputs: &[PathBuf], options: &MergeOptions) -> Result<M
             return Err(Error::file(p, "is also the output of the merge"));
         }
     }
-    let files: Vec<Input> = inputs
+    let mut files: Vec<Input> = inputs
         .iter()
         .map(|p| Input::read(p))
         .collect::<Result<_>>()?;
+    // The denoiser's `half` layer is written once every pixel of a render
+    // has two samples: kept only when every input has it.
+    use crate::denoise::HALF_LAYER;
+    if !files.iter().all(|f| f.image.layer(HALF_LAYER).is_some()) {
+        for f in &mut files {
+            f.image.remove_layer(HALF_LAYER);
+        }
+    }
     let first = &files[0];
     let (dw, dh) = first.image.display_size();
     // The frame is allocated whole below: a header may claim any size.

@@ -133,6 +133,12 @@ fn denoised_images_are_closer_to_the_reference_and_keep_the_raw_one() {
             .map(|(_, v)| v.clone())
             .unwrap_or_default();
         assert!(desc.starts_with("Intel Open Image Denoise 2."), "{desc}");
+        // The photon integrator's denoised image is blended with its raw
+        // one by the errors its halves show (`denoise::blend`); the path
+        // tracer's is the denoiser's.
+        let blended = integrator == "photon";
+        assert_eq!(den.layer("half").is_some(), blended, "{integrator}");
+        assert_eq!(desc.contains("blended"), blended, "{desc}");
         // Finite, the same mean, and much closer to the reference.
         assert!(den.pixels().iter().all(|p| p.is_finite()));
         let (m_raw, m_den) = (raw.mean_rgb().element_sum(), den.mean_rgb().element_sum());
@@ -159,12 +165,22 @@ fn denoised_images_are_closer_to_the_reference_and_keep_the_raw_one() {
 
 #[test]
 fn tiles_are_denoised_when_merged_as_the_whole_frame_is() {
+    // The photon integrator's too, whose tiles carry the `half` layer the
+    // blend of the merged frame needs.
+    for integrator in ["path", "photon"] {
+        tiles_denoised_when_merged(integrator);
+    }
+}
+
+fn tiles_denoised_when_merged(integrator: &str) {
     let Some(d) = oidn_tempdir() else { return };
     let dir = d.path();
     let base = [
         "render",
         SCENE,
         "-q",
+        "--integrator",
+        integrator,
         "--spp",
         "4",
         "--width",
@@ -186,6 +202,7 @@ fn tiles_are_denoised_when_merged_as_the_whole_frame_is() {
         // request for the merge.
         let (img, attrs) = read_exr(dir.join(format!("t_{i}.exr"))).unwrap();
         assert!(img.layer("noisy").is_none() && img.layer("albedo").is_some());
+        assert_eq!(img.layer("half").is_some(), integrator == "photon");
         assert!(attrs
             .iter()
             .any(|(k, v)| k == "vdbphoton/denoise" && v == "at merge"));

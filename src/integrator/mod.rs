@@ -71,6 +71,15 @@ pub trait Integrator: Sync {
     /// From now on, fill [`SampleResult::albedo`] (for the denoiser; an
     /// integrator that computes it anyway may always fill it).
     fn enable_albedo(&mut self, _world: &World) {}
+    /// Whether this integrator's denoised image is blended with its raw
+    /// one by their measured errors (`crate::denoise::blend`, at the cost
+    /// of a second run of the denoiser, on half the samples): for an
+    /// integrator whose raw image is often smoother than the denoiser
+    /// takes it to be, so that its blur costs more than the noise it
+    /// removes.
+    fn denoise_blended(&self) -> bool {
+        false
+    }
     /// The time of a camera sample within the camera's shutter (frames
     /// from the frame; 0 without motion blur). By default each sample of a
     /// pixel has its own, stratified over the shutter: the base-2 radical

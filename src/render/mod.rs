@@ -89,7 +89,7 @@ fn check_memory(
     let film = Film::bytes_for(pixels as usize, r.aovs) as u64
         + pixels * image_bytes_per_pixel(r.aovs)
         + if r.denoise {
-            pixels * Film::ALBEDO_BYTES as u64
+            pixels * Film::DENOISE_BYTES as u64
         } else {
             0
         }
@@ -487,6 +487,7 @@ impl Denoiser {
             &self.oidn,
             quality,
             image.layer(crate::denoise::ALBEDO_LAYER).is_some(),
+            image.layer(crate::denoise::HALF_LAYER).is_some(),
         )
     }
 }
@@ -695,6 +696,9 @@ pub fn render_scene(
         if r.denoise {
             integrator.enable_albedo(&world);
             film = film.with_albedo();
+            if integrator.denoise_blended() {
+                film = film.with_half();
+            }
         }
         let per_pass = integrator.samples_per_pass().max(1);
         let stop = match opts.time_limit {

@@ -195,6 +195,7 @@ pub struct Identity {
     pub integrator: String,
     pub aovs: bool,
     pub albedo: bool,
+    pub half: bool,
 }
 
 impl Identity {
@@ -211,6 +212,7 @@ impl Identity {
             integrator: integrator.to_string(),
             aovs: film.has_aovs(),
             albedo: film.has_albedo(),
+            half: film.has_half(),
         }
     }
 
@@ -226,6 +228,7 @@ impl Identity {
             ("integrator", self.integrator.clone()),
             ("aovs", self.aovs.to_string()),
             ("albedo", self.albedo.to_string()),
+            ("half", self.half.to_string()),
             ("scene", self.scene.clone()),
         ]
     }
@@ -247,7 +250,7 @@ impl Identity {
                 }
                 "size" => format!("it is of a {theirs} image, not {mine}"),
                 "region" => format!("it is of the pixels {theirs}, not {mine}"),
-                "aovs" | "albedo" => format!(
+                "aovs" | "albedo" | "half" => format!(
                     "its film {} {k}",
                     if theirs == "true" { "has" } else { "has no" }
                 ),
