@@ -103,8 +103,8 @@ const BLEND_RADIUS: usize = 4;
 /// map's image after many passes is smooth already, its error in blotches
 /// the size of its kernels) the detail it blurs away costs more than the
 /// noise it removes. On the Blender smoke + fire frame at 30 s the photon
-/// integrator's raw image was 7.5e-6 from the truth and its denoised one
-/// 9.2e-6 (docs/performance.md, "Denoising").
+/// integrator's raw image was 4.8e-6 from the truth, its denoised one
+/// 6.5e-6 and the blend 4.8e-6 (docs/performance.md, "Denoising").
 ///
 /// The errors come from the render's two halves (every other sample,
 /// [`HALF_LAYER`]: A, and the rest, B = 2·raw − A, independent of it), the
@@ -148,14 +148,17 @@ pub fn blend(
     };
     (0..n)
         .map(|i| {
-            // The denoiser's error only where the square's mean is
-            // significant: two standard errors above zero. Under heavy
-            // noise the estimate is the difference of two large squares,
-            // and its chance excursions would pull the image back to the
-            // noise.
+            // The denoiser's error less one standard error of the
+            // square's mean. Under heavy noise the estimate is the
+            // difference of two large squares, and its chance excursions
+            // (clipped at zero, so biased upwards) would pull the image
+            // back to the noise; less of it keeps more of the denoiser's
+            // gain where it helps, more keeps more of the raw image where
+            // it does not (docs/performance.md, "Denoising": 0, 1 and 2
+            // standard errors measured).
             let count = side(i % w, w) * side(i / w, h);
             let se = ((e_den_sq[i] - e_den[i] * e_den[i]).max(0.0) / count).sqrt();
-            let (r, d) = (e_raw[i].max(0.0), 0.5 * (e_den[i] - 2.0 * se).max(0.0));
+            let (r, d) = (e_raw[i].max(0.0), 0.5 * (e_den[i] - se).max(0.0));
             let k = if r + d > 0.0 {
                 (r / (r + d)) as f32
             } else {

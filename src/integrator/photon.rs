@@ -709,9 +709,9 @@ impl Integrator for PhotonIntegrator {
 
     /// A photon map's error is blotches the size of its kernels, which the
     /// denoiser leaves, and after many passes little pixel noise is left
-    /// for it to remove: on the Blender smoke + fire frame at 828 passes
-    /// the raw image was 6.6e-6 from the truth, denoised 8.4e-6, blended
-    /// 7.3e-6 (docs/performance.md, "Denoising").
+    /// for it to remove: on the Blender smoke + fire frame at 840 passes
+    /// the raw image was 4.8e-6 from the truth, denoised 6.5e-6, blended
+    /// 4.8e-6 (docs/performance.md, "Denoising").
     fn denoise_blended(&self) -> bool {
         true
     }
