@@ -107,7 +107,8 @@ const BLEND_RADIUS: usize = 4;
 /// 6.5e-6 and the blend 4.8e-6 (docs/performance.md, "Denoising").
 ///
 /// The errors come from the render's two halves (every other sample,
-/// [`HALF_LAYER`]: A, and the rest, B = 2·raw − A, independent of it), the
+/// [`HALF_LAYER`]: A, and the rest, B = 2·raw − A, independent of it;
+/// exactly so for an even number of samples, nearly for many), the
 /// denoiser run on A as well (D_A), luminance per pixel, averaged over a
 /// (2·[`BLEND_RADIUS`] + 1)² square:
 /// - the raw image's variance, (A − B)²/4;
