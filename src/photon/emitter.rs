@@ -229,11 +229,17 @@ const MAX_BOXES: usize = 1 << 20;
 /// bench's fire, 4 % on its smoke + fire frame.
 const FLOOR: f32 = 0.002;
 
+/// The least weight of a box larger than a voxel (when the cells are too
+/// many to split finely, [`MAX_BOXES`]), as cells had before they were
+/// split: its nine points can then miss a voxel that emits.
+const COARSE_FLOOR: f32 = 0.05;
+
 /// The emissive boxes of every volume and their weights (emitted power
 /// estimate × world volume). Each emissive majorant cell is split into
 /// boxes of about a voxel ([`MAX_BOXES`] at most), each weighted by its
 /// emission at its centre and, on average, its corners, at least
-/// [`FLOOR`] × its cell's bound. Fire's emission follows the temperature
+/// [`FLOOR`] × its cell's bound ([`COARSE_FLOOR`] for boxes larger
+/// than a voxel). Fire's emission follows the temperature
 /// steeply (blackbody), so within a 4-voxel cell it varies by orders of
 /// magnitude, and a photon from a uniform point of the cell carried a power
 /// that varied with it: over the Blender smoke + fire frame's media photons
@@ -286,6 +292,7 @@ fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>,
             let edge = size / n as f32;
             let det = v.world_from_index().matrix3.determinant().abs();
             let volume_world = det * edge * edge * edge;
+            let floor = if edge <= 1.0 { FLOOR } else { COARSE_FLOOR };
             let at = |pi: Vec3| -> f32 {
                 let p = v.world_from_index().transform_point3(pi);
                 times
@@ -320,7 +327,7 @@ fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>,
                     size: edge,
                     volume_world,
                 });
-                weights.push(mean.max(FLOOR * bound) * volume_world);
+                weights.push(mean.max(floor * bound) * volume_world);
             }
             (boxes, weights)
         })
