@@ -276,12 +276,12 @@ mod tests {
     /// stand-in denoiser makes of the whole and of one half.
     #[allow(clippy::type_complexity)]
     fn render(truth: &[f32], sigma: f32) -> [Vec<[f32; 3]>; 4] {
-        let a: Vec<[f32; 3]> = (0..W * H)
-            .map(|i| [truth[i] + sigma * noise(i, 1); 3])
-            .collect();
-        let b: Vec<[f32; 3]> = (0..W * H)
-            .map(|i| [truth[i] + sigma * noise(i, 2); 3])
-            .collect();
+        let half = |k: u64| -> Vec<[f32; 3]> {
+            (0..W * H)
+                .map(|i| [truth[i] + sigma * noise(i, k); 3])
+                .collect()
+        };
+        let (a, b) = (half(1), half(2));
         let raw: Vec<[f32; 3]> = a
             .iter()
             .zip(&b)

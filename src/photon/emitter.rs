@@ -283,9 +283,9 @@ fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>,
     }
     let budget = (MAX_BOXES / emissive.len()).max(1);
     let most = (budget as f32).cbrt().floor().max(1.0) as usize;
-    let split: Vec<(Vec<EmissiveBox>, Vec<f32>)> = emissive
+    emissive
         .par_iter()
-        .map(|&(vi, c, bound)| {
+        .flat_map_iter(|&(vi, c, bound)| {
             let v = &media.volumes()[vi];
             let (lo, size) = v.majorant_grid().cell_box(c);
             let n = (size.round().max(1.0) as usize).min(most);
@@ -309,9 +309,7 @@ fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>,
                     at(lo + o * edge)
                 })
                 .collect();
-            let mut boxes = Vec::with_capacity(n * n * n);
-            let mut weights = Vec::with_capacity(n * n * n);
-            for k in 0..n * n * n {
+            (0..n * n * n).map(move |k| {
                 let (x, y, z) = (k % n, (k / n) % n, k / (n * n));
                 let o = Vec3::new(x as f32, y as f32, z as f32);
                 let corners: f32 = (0..8)
@@ -321,23 +319,14 @@ fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>,
                     .sum::<f32>()
                     / 8.0;
                 let mean = 0.5 * (corners + at(lo + (o + 0.5) * edge));
-                boxes.push(EmissiveBox {
+                let b = EmissiveBox {
                     volume: vi,
                     lo: lo + o * edge,
                     size: edge,
                     volume_world,
-                });
-                weights.push(mean.max(floor * bound) * volume_world);
-            }
-            (boxes, weights)
+                };
+                (b, mean.max(floor * bound) * volume_world)
+            })
         })
-        .collect();
-    split.into_iter().fold(
-        (Vec::new(), Vec::new()),
-        |(mut boxes, mut weights), (b, w)| {
-            boxes.extend(b);
-            weights.extend(w);
-            (boxes, weights)
-        },
-    )
+        .unzip()
 }
