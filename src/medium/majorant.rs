@@ -346,6 +346,11 @@ impl MajorantGrid {
         self.res
     }
 
+    /// Voxels per cell edge.
+    pub fn cell(&self) -> i32 {
+        self.cell
+    }
+
     /// The `[min, max]` bounds of the cell holding index point `p` (zeros
     /// outside).
     pub fn lookup(&self, p: Vec3) -> [f32; 2] {
