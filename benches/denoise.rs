@@ -37,8 +37,7 @@ fn main() {
     desc.render.integrator = "path".into();
     let world = World::load(&desc).unwrap();
     let mut integrator = make_integrator(&desc, &world).unwrap();
-    integrator.enable_albedo(&world);
-    let mut film = Film::new(w, h, Region::full(w, h), false).with_albedo();
+    let mut film = Film::new(w, h, Region::full(w, h), false).with_guides();
     let t = Instant::now();
     run_passes(
         &world,

@@ -187,8 +187,7 @@ phase = {{ type = "hg", g = 0.3 }}
             let mut integ = make_integrator(&desc, &world).unwrap();
             let mut film = Film::new(w, h, Region::full(w, h), false);
             if denoiser.is_some() {
-                integ.enable_albedo(&world);
-                film = film.with_albedo();
+                film = film.with_guides();
             }
             let film_bytes = Film::bytes_for((w * h) as usize, false) as u64;
             let t = Instant::now();

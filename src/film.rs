@@ -9,7 +9,7 @@
 
 use crate::image::{Image, ImageError};
 use crate::Rgb;
-use glam::{DVec3, Vec4};
+use glam::{DVec3, Vec3, Vec4};
 
 /// What one camera sample returns.
 #[derive(Debug, Clone, Copy, Default)]
@@ -25,9 +25,19 @@ pub struct SampleResult {
     /// Transmittance along the camera ray (mean over channels; alpha is 1
     /// minus it).
     pub transmittance: f32,
-    /// The denoising albedo along the camera ray (`crate::denoise`), when
-    /// the integrator was asked for it (`crate::integrator::Integrator::enable_albedo`).
+    /// The denoiser's guides along the camera ray, for the samples that
+    /// carry them (`crate::integrator::guide`).
+    pub guide: Option<Guide>,
+}
+
+/// The denoiser's guides seen by one camera sample
+/// (`crate::integrator::guide`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Guide {
+    /// The denoising albedo.
     pub albedo: Rgb,
+    /// The weighted normal of the volume's apparent surface (world space).
+    pub normal: Vec3,
 }
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)` in a `width` x `height`
@@ -156,6 +166,15 @@ struct AovSums {
     emission: Rgb,
 }
 
+/// Sums of one pixel's denoising guides, over the samples that carried
+/// them (the first few: `crate::integrator::guide::GUIDE_SAMPLES`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct GuideSums {
+    albedo: Rgb,
+    normal: Vec3,
+    samples: u32,
+}
+
 /// Per-pixel sums over the camera samples of a render.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Film {
@@ -169,8 +188,8 @@ pub struct Film {
     transmittance: Vec<f64>,
     /// AOV sums, when they are kept.
     aovs: Option<Vec<AovSums>>,
-    /// Sums of the denoising albedo, when the render is denoised.
-    albedo: Option<Vec<Rgb>>,
+    /// Sums of the denoising guides, when the render is denoised.
+    guides: Option<Vec<GuideSums>>,
     /// Radiance sums of every other sample (the 2nd, 4th, ...), when the
     /// render is denoised: one half of the samples, independent of the
     /// other half (a pass has one sample a pixel, so the halves take
@@ -182,9 +201,9 @@ pub struct Film {
 }
 
 impl Film {
-    /// Bytes per pixel the denoising albedo and half sums add at most
-    /// ([`Self::with_albedo`], [`Self::with_half`]).
-    pub const DENOISE_BYTES: usize = 2 * std::mem::size_of::<Rgb>();
+    /// Bytes per pixel the denoising guides and half sums add at most
+    /// ([`Self::with_guides`], [`Self::with_half`]).
+    pub const DENOISE_BYTES: usize = std::mem::size_of::<GuideSums>() + std::mem::size_of::<Rgb>();
 
     /// An empty film over `region` of a `width` x `height` image, with AOV
     /// sums when `aovs`.
@@ -197,18 +216,19 @@ impl Film {
             l: vec![DVec3::ZERO; n],
             transmittance: vec![0.0; n],
             aovs: aovs.then(|| vec![AovSums::default(); n]),
-            albedo: None,
+            guides: None,
             half: None,
             samples: vec![0; n],
         }
     }
 
-    /// The film also keeps the denoising albedo of its samples
-    /// ([`SampleResult::albedo`]), written as the layer `albedo`.
-    pub fn with_albedo(self) -> Self {
+    /// The film also keeps the denoising guides of the samples that carry
+    /// them ([`SampleResult::guide`]), written as the layers `albedo` and
+    /// `normal`.
+    pub fn with_guides(self) -> Self {
         let n = self.samples.len();
         Self {
-            albedo: Some(vec![Rgb::ZERO; n]),
+            guides: Some(vec![GuideSums::default(); n]),
             ..self
         }
     }
@@ -229,9 +249,9 @@ impl Film {
         self.half.is_some()
     }
 
-    /// Whether the film keeps the denoising albedo.
-    pub fn has_albedo(&self) -> bool {
-        self.albedo.is_some()
+    /// Whether the film keeps the denoising guides.
+    pub fn has_guides(&self) -> bool {
+        self.guides.is_some()
     }
 
     /// Bytes a film of `pixels` pixels takes, for memory checks before a
@@ -277,8 +297,12 @@ impl Film {
             a[i].indirect += s.indirect;
             a[i].emission += s.emission;
         }
-        if let (Some(a), true) = (&mut self.albedo, s.albedo.is_finite()) {
-            a[i] += s.albedo;
+        if let (Some(a), Some(g)) = (&mut self.guides, s.guide) {
+            if g.albedo.is_finite() && g.normal.is_finite() {
+                a[i].albedo += g.albedo;
+                a[i].normal += g.normal;
+                a[i].samples += 1;
+            }
         }
     }
 
@@ -299,14 +323,16 @@ impl Film {
                 x.emission += y.emission;
             }
         }
-        for (mine, theirs) in [
-            (&mut self.albedo, &other.albedo),
-            (&mut self.half, &other.half),
-        ] {
-            if let (Some(a), Some(b)) = (mine, theirs) {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += *y;
-                }
+        if let (Some(a), Some(b)) = (&mut self.guides, &other.guides) {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.albedo += y.albedo;
+                x.normal += y.normal;
+                x.samples += y.samples;
+            }
+        }
+        if let (Some(a), Some(b)) = (&mut self.half, &other.half) {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += *y;
             }
         }
         Ok(())
@@ -322,13 +348,13 @@ impl Film {
         let n = self.samples.len() as u64;
         n * (3 * 8 + 8 + 4)
             + self.aovs.as_ref().map_or(0, |_| n * 9 * 4)
-            + self.albedo.as_ref().map_or(0, |_| n * 3 * 4)
+            + self.guides.as_ref().map_or(0, |_| n * 7 * 4)
             + self.half.as_ref().map_or(0, |_| n * 3 * 4)
     }
 
     /// Writes every sum and count, little-endian, bit for bit (a resumed
     /// render's film, `crate::render::resume`): radiance, transmittance,
-    /// counts, then the AOVs and the albedo and half sums when kept.
+    /// counts, then the AOVs, the guides and the half sums when kept.
     pub fn write_sums(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
         fn put<T, const N: usize>(
             w: &mut impl std::io::Write,
@@ -368,14 +394,21 @@ impl Film {
                 f32s(b, s.emission);
             })?;
         }
-        for a in [&self.albedo, &self.half].into_iter().flatten() {
+        if let Some(a) = &self.guides {
+            put::<_, 28>(w, a, |g, b| {
+                f32s(b, g.albedo);
+                f32s(b, g.normal);
+                b.extend_from_slice(&g.samples.to_le_bytes());
+            })?;
+        }
+        if let Some(a) = &self.half {
             put::<_, 12>(w, a, |c, b| f32s(b, *c))?;
         }
         Ok(())
     }
 
     /// Reads what [`Self::write_sums`] wrote of a film of this layout
-    /// (region, AOVs, albedo) from `r` into this film, replacing its sums
+    /// (region, AOVs, guides, half) from `r` into this film, replacing its sums
     /// (a chunk at a time: no second copy of the film in memory).
     pub fn read_sums(&mut self, r: &mut impl std::io::Read) -> Result<(), String> {
         fn get<T, const N: usize>(
@@ -414,7 +447,14 @@ impl Film {
                 emission: rgb_at(s, 6),
             })?;
         }
-        for a in [&mut self.albedo, &mut self.half].into_iter().flatten() {
+        if let Some(a) = &mut self.guides {
+            get::<_, 28>(r, a, |s| GuideSums {
+                albedo: rgb_at(s, 0),
+                normal: rgb_at(s, 3),
+                samples: u32::from_le_bytes(s[24..28].try_into().unwrap()),
+            })?;
+        }
+        if let Some(a) = &mut self.half {
             get::<_, 12>(r, a, |s| rgb_at(s, 0))?;
         }
         Ok(())
@@ -461,7 +501,8 @@ impl Film {
     /// The means as an image of the region, placed in the whole image (its
     /// data window): RGBA (alpha = 1 − the transmittance along the camera
     /// ray) and, when kept, the AOV layers `direct`, `indirect`, `emission`
-    /// and `transmittance`, and the denoiser's `albedo` and `half`.
+    /// and `transmittance`, and the denoiser's `albedo`, `normal` and
+    /// `half`.
     pub fn to_image(&self) -> Result<Image, ImageError> {
         let (w, h) = (self.region.width() as usize, self.region.height() as usize);
         let tr = self.mean_transmittance();
@@ -491,10 +532,15 @@ impl Film {
                 layer.set(i % w, i / w, &[*t]);
             }
         }
-        if let Some(a) = &self.albedo {
+        if let Some(a) = &self.guides {
+            let inv = |g: &GuideSums| 1.0 / g.samples.max(1) as f32;
             let layer = image.add_rgb_layer(crate::denoise::ALBEDO_LAYER)?;
-            for (i, s) in a.iter().enumerate() {
-                layer.set(i % w, i / w, &(*s * self.inv(i) as f32).to_array());
+            for (i, g) in a.iter().enumerate() {
+                layer.set(i % w, i / w, &(g.albedo * inv(g)).to_array());
+            }
+            let layer = image.add_layer(crate::denoise::NORMAL_LAYER, &["X", "Y", "Z"])?;
+            for (i, g) in a.iter().enumerate() {
+                layer.set(i % w, i / w, &(g.normal * inv(g)).to_array());
             }
         }
         // The half's mean needs a sample in it everywhere.
@@ -544,6 +590,40 @@ mod tests {
         film.write_sums(&mut bytes).unwrap();
         assert_eq!(bytes.len() as u64, film.sums_bytes());
         let mut back = Film::new(2, 1, Region::full(2, 1), false).with_half();
+        back.read_sums(&mut bytes.as_slice()).unwrap();
+        assert_eq!(back, film);
+    }
+
+    /// The guides' layers are means over the samples that carried guides
+    /// (the first few of a pixel), not over all of its samples; merged
+    /// films add their guide counts.
+    #[test]
+    fn the_guides_are_the_mean_of_the_samples_that_carry_them() {
+        let mut film = Film::new(1, 1, Region::full(1, 1), false).with_guides();
+        let guided = |a: f32, n: Vec3| SampleResult {
+            guide: Some(Guide {
+                albedo: Rgb::splat(a),
+                normal: n,
+            }),
+            ..SampleResult::default()
+        };
+        film.add(0, 0, &guided(0.2, Vec3::X));
+        film.add(0, 0, &guided(0.6, Vec3::Y));
+        film.add(0, 0, &SampleResult::default());
+        let mut other = Film::new(1, 1, Region::full(1, 1), false).with_guides();
+        other.add(0, 0, &guided(0.7, Vec3::Z));
+        film.merge(&other).unwrap();
+        let image = film.to_image().unwrap();
+        let albedo = image.layer(crate::denoise::ALBEDO_LAYER).unwrap();
+        assert_eq!(albedo.get(0, 0), &[0.5, 0.5, 0.5]);
+        let normal = image.layer(crate::denoise::NORMAL_LAYER).unwrap();
+        let third = 1.0f32 / 3.0;
+        assert_eq!(normal.get(0, 0), &[third, third, third]);
+        // Kept in the resume state, bit for bit.
+        let mut bytes = Vec::new();
+        film.write_sums(&mut bytes).unwrap();
+        assert_eq!(bytes.len() as u64, film.sums_bytes());
+        let mut back = Film::new(1, 1, Region::full(1, 1), false).with_guides();
         back.read_sums(&mut bytes.as_slice()).unwrap();
         assert_eq!(back, film);
     }

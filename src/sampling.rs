@@ -42,9 +42,9 @@ pub enum Domain {
     /// A stream of its own, so that a still frame draws exactly the numbers
     /// it drew before motion blur existed.
     Time,
-    /// The path tracer's march for the denoising albedo: (seed, pixel,
-    /// sample).
-    Albedo,
+    /// The march for the denoiser's guides (`crate::integrator::guide`):
+    /// (seed, pixel, sample).
+    Guide,
     /// Tests, benchmarks and tools.
     Test,
 }
@@ -59,7 +59,7 @@ impl Domain {
             Domain::Pass => 0x082E_FA98_EC4E_6C89,
             Domain::Test => 0x4528_21E6_38D0_1377,
             Domain::Time => 0xBE54_66CF_34E9_0C6D,
-            Domain::Albedo => 0xC0AC_29B7_C97C_50DD,
+            Domain::Guide => 0xC0AC_29B7_C97C_50DD,
         }
     }
 }

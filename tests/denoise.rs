@@ -15,12 +15,13 @@ use std::path::Path;
 use std::process::{Command, Output};
 use vdbphoton::camera::Camera;
 use vdbphoton::image::{read_exr, read_exr_rgb, Image};
+use vdbphoton::integrator::guide;
 use vdbphoton::integrator::photon::PhotonSettings;
 use vdbphoton::integrator::{Integrator, PathIntegrator, PhotonIntegrator};
 use vdbphoton::light::Environment;
 use vdbphoton::medium::{ExtraGrids, Material, Media, Volume};
 use vdbphoton::phase::PhaseFunction;
-use vdbphoton::render::passes::camera_sample;
+use vdbphoton::render::passes::camera_sample_guided;
 use vdbphoton::world::World;
 use vdbphoton::Rgb;
 
@@ -287,58 +288,105 @@ fn denoising_without_the_library_or_the_memory_stops_before_any_work() {
     assert!(!dir.join("m.exr").exists() && dir.join("a.exr").exists());
 }
 
+/// A world of the box [-1, 1]^3 (128^3 voxels) of σs = `sigma_s`,
+/// σa = `sigma_a`, before a constant sky, seen by a camera at `eye` looking
+/// at its centre through a single pixel of a narrow field.
+fn box_world(sigma_s: Rgb, sigma_a: f32, sky: f32, eye: Vec3) -> World {
+    let v = Volume::new(
+        "box",
+        unit_box_grid(),
+        ExtraGrids::default(),
+        Material::Raw {
+            sigma_a: Rgb::splat(sigma_a),
+            sigma_s,
+            emission: Rgb::ZERO,
+            phase: PhaseFunction::Isotropic,
+        },
+        DAffine3::IDENTITY,
+    )
+    .unwrap();
+    World {
+        camera: Camera::new(eye, Vec3::ZERO, Vec3::Z, 0.01, 1, 1),
+        lights: vec![],
+        environment: Environment::Constant(Rgb::splat(sky)),
+        media: Media::new(vec![v]),
+        warnings: vec![],
+        load_seconds: 0.0,
+    }
+}
+
 #[test]
 fn the_denoising_albedo_is_the_scattering_seen_along_the_ray() {
-    // The box [-1, 1]^3 of σs = (0.7, 0.35, 0), σa = 0.3 before a sky of
-    // radiance 0.4 (and one of 3, which counts as 1): a camera ray through
-    // its centre sees ∫ T σs = σs/σt (1 − e^{−2σt}) and the sky behind
-    // through T = e^{−2σt}, per channel.
+    // The box of σs = (0.7, 0.35, 0), σa = 0.3 before a sky of radiance
+    // 0.4 (and one of 3, which counts as 1): a camera ray through its
+    // centre sees ∫ T σs = σs/σt (1 − e^{−2σt}) and the sky behind through
+    // T = e^{−2σt}, per channel. The guides are the camera ray's, whichever
+    // the integrator, and only the first GUIDE_SAMPLES samples carry them.
     for (sky, seen) in [(0.4f32, 0.4f32), (3.0, 1.0)] {
-        let v = Volume::new(
-            "box",
-            unit_box_grid(),
-            ExtraGrids::default(),
-            Material::Raw {
-                sigma_a: Rgb::splat(0.3),
-                sigma_s: Rgb::new(0.7, 0.35, 0.0),
-                emission: Rgb::ZERO,
-                phase: PhaseFunction::Isotropic,
-            },
-            DAffine3::IDENTITY,
-        )
-        .unwrap();
-        let world = World {
-            camera: Camera::new(Vec3::new(0.0, -6.0, 0.0), Vec3::ZERO, Vec3::Z, 0.01, 1, 1),
-            lights: vec![],
-            environment: Environment::Constant(Rgb::splat(sky)),
-            media: Media::new(vec![v]),
-            warnings: vec![],
-            load_seconds: 0.0,
-        };
         let sigma_s = Rgb::new(0.7, 0.35, 0.0);
+        let world = box_world(sigma_s, 0.3, sky, Vec3::new(0.0, -6.0, 0.0));
         let sigma_t = sigma_s + Rgb::splat(0.3);
         let t = (-2.0 * sigma_t).map(f32::exp);
         let want = sigma_s / sigma_t * (Rgb::ONE - t) + seen * t;
         let mut path = PathIntegrator::new(8);
-        path.enable_albedo(&world);
         let mut photon = PhotonIntegrator::new(&world, PhotonSettings::default(), 8, 1).unwrap();
-        photon.enable_albedo(&world);
+        let step = Some(guide::step(&world));
         for (name, integ) in [
             ("path", &mut path as &mut dyn Integrator),
             ("photon", &mut photon as &mut dyn Integrator),
         ] {
-            let n = 256;
+            let n = guide::GUIDE_SAMPLES;
             let mut sum = Rgb::ZERO;
             for s in 0..n {
-                integ.begin_pass(&world, s);
-                sum += camera_sample(&world, integ, 5, 0, 0, s as u64).albedo;
+                integ.begin_pass(&world, s as u32);
+                let r = camera_sample_guided(&world, integ, 5, (0, 0), s, step);
+                sum += r.guide.expect("a guided sample").albedo;
             }
             let got = sum / n as f32;
             assert!(
                 (got - want).abs().max_element() < 0.01,
                 "{name}, sky {sky}: albedo {got}, expected {want}"
             );
+            integ.begin_pass(&world, n as u32);
+            let later = camera_sample_guided(&world, integ, 5, (0, 0), n, step);
+            assert!(later.guide.is_none(), "{name}: sample {n} carries a guide");
         }
+    }
+}
+
+#[test]
+fn the_denoising_normal_faces_the_camera_from_the_volume_s_surface() {
+    // A dense box (σt = 60: the ray's transmittance falls to e^-1 within
+    // two voxels of its face) seen from in front of two of its faces: the
+    // normal is the face's outward normal, towards the camera, of length
+    // close to the albedo (the weights sum to about 1 and the gradient
+    // points inwards only at the face). A gradient taken with the wrong
+    // sign, or an unweighted sum, fails.
+    for eye in [Vec3::new(0.0, -6.0, 0.0), Vec3::new(6.0, 0.0, 0.0)] {
+        let world = box_world(Rgb::splat(59.0), 1.0, 0.0, eye);
+        let step = guide::step(&world);
+        let mut n = Vec3::ZERO;
+        let mut albedo = Rgb::ZERO;
+        let path = PathIntegrator::new(8);
+        for s in 0..guide::GUIDE_SAMPLES {
+            let g = camera_sample_guided(&world, &path, 5, (0, 0), s, Some(step))
+                .guide
+                .unwrap();
+            n += g.normal;
+            albedo += g.albedo;
+        }
+        let k = guide::GUIDE_SAMPLES as f32;
+        let (n, albedo) = (n / k, albedo / k);
+        let outward = eye.normalize();
+        assert!(
+            n.normalize().dot(outward) > 0.99,
+            "seen from {eye}: normal {n}, expected along {outward}"
+        );
+        assert!(
+            n.length() > 0.5 && n.length() <= albedo.x + 1e-3,
+            "seen from {eye}: normal {n} of length {}, albedo {albedo}",
+            n.length()
+        );
     }
 }
 

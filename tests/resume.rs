@@ -360,7 +360,7 @@ fn a_state_of_another_build_is_refused() {
     use vdbphoton::render::resume::{read, write, Identity, Position};
     let dir = common::tempdir();
     let path = dir.path().join("s.vdbstate");
-    let mut film = Film::new(8, 6, Region::full(8, 6), true).with_albedo();
+    let mut film = Film::new(8, 6, Region::full(8, 6), true).with_guides();
     film.add(
         3,
         2,
@@ -368,7 +368,10 @@ fn a_state_of_another_build_is_refused() {
             l: vdbphoton::Rgb::new(0.1, 0.2, 0.3),
             direct: vdbphoton::Rgb::new(0.01, 0.02, 0.03),
             transmittance: 0.5,
-            albedo: vdbphoton::Rgb::new(0.7, 0.8, 0.9),
+            guide: Some(vdbphoton::film::Guide {
+                albedo: vdbphoton::Rgb::new(0.7, 0.8, 0.9),
+                normal: glam::Vec3::new(0.0, -0.5, 0.25),
+            }),
             ..Default::default()
         },
     );
@@ -380,7 +383,7 @@ fn a_state_of_another_build_is_refused() {
         last_pass: 0.25,
     };
     write(&path, &id, at, &vec![], &film).unwrap();
-    let empty = Film::new(8, 6, Region::full(8, 6), true).with_albedo();
+    let empty = Film::new(8, 6, Region::full(8, 6), true).with_guides();
     let back = read(&path, &id, &empty).unwrap().unwrap();
     assert_eq!(back.film, film);
     assert_eq!(back.at, at);

@@ -1,5 +1,5 @@
 //! A diagnostic integrator: the image is the denoising albedo
-//! ([`super::albedo::along`]), what the denoiser is guided by, as Cycles'
+//! ([`super::guide::along`]), what the denoiser is guided by, as Cycles'
 //! Denoising Albedo pass shows it. For checking a guide against the beauty
 //! image (`--integrator albedo`), and the smallest example of an
 //! integrator: this file and one line in `registry!` (`super`) are all it
@@ -35,7 +35,7 @@ pub struct AlbedoView {
 impl AlbedoView {
     pub fn new(world: &World) -> Self {
         Self {
-            step: super::albedo::step(world),
+            step: super::guide::step(world),
         }
     }
 }
@@ -46,10 +46,9 @@ impl Integrator for AlbedoView {
     }
 
     fn li(&self, world: &World, ray: &Ray, _rng: &mut Rng, key: SampleKey) -> SampleResult {
-        let a = super::albedo::along(world, ray, self.step, &mut key.rng(Domain::Albedo));
+        let g = super::guide::along(world, ray, self.step, &mut key.rng(Domain::Guide));
         SampleResult {
-            l: a,
-            albedo: a,
+            l: g.albedo,
             transmittance: 0.0,
             ..Default::default()
         }

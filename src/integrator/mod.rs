@@ -9,7 +9,7 @@
 //! else names it (`auto`'s choice, `crate::render::choose_integrator`,
 //! picks between the two it knows).
 
-pub mod albedo;
+pub mod guide;
 pub mod nee;
 
 /// Declares each integrator's module and lists its `REGISTRATION` in
@@ -68,9 +68,6 @@ pub trait Integrator: Sync {
     }
     /// Prepares pass `pass` (0-based) before its camera samples.
     fn begin_pass(&mut self, _world: &World, _pass: u32) {}
-    /// From now on, fill [`SampleResult::albedo`] (for the denoiser; an
-    /// integrator that computes it anyway may always fill it).
-    fn enable_albedo(&mut self, _world: &World) {}
     /// Whether this integrator's denoised image is blended with its raw
     /// one by their measured errors (`crate::denoise::blend`, at the cost
     /// of a second run of the denoiser, on half the samples): for an

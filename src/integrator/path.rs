@@ -39,26 +39,17 @@ use glam::Vec3;
 pub struct PathIntegrator {
     /// Real scattering events at most along a path.
     pub max_bounces: u32,
-    /// The march step of the denoising albedo, when it is asked for.
-    albedo_step: Option<f32>,
 }
 
 impl PathIntegrator {
     pub fn new(max_bounces: u32) -> Self {
-        Self {
-            max_bounces,
-            albedo_step: None,
-        }
+        Self { max_bounces }
     }
 }
 
 impl Integrator for PathIntegrator {
     fn name(&self) -> &'static str {
         "path"
-    }
-
-    fn enable_albedo(&mut self, world: &World) {
-        self.albedo_step = Some(super::albedo::step(world));
     }
 
     fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, key: SampleKey) -> SampleResult {
@@ -70,11 +61,6 @@ impl Integrator for PathIntegrator {
             let mut rng_t = key.rng(Domain::Alpha);
             let tr = tracking::transmittance(&world.media, ray, f32::INFINITY, &mut rng_t);
             r.transmittance = (tr.x + tr.y + tr.z) / 3.0;
-        }
-        // The denoising albedo: a march of its own (the path's collisions
-        // would give a guide as noisy as the image).
-        if let Some(step) = self.albedo_step {
-            r.albedo = super::albedo::along(world, ray, step, &mut key.rng(Domain::Albedo));
         }
         r
     }

@@ -614,7 +614,7 @@ impl PhotonIntegrator {
         max_bounces: u32,
         seed: u64,
     ) -> crate::error::Result<Self> {
-        let finest = super::albedo::step(world);
+        let finest = super::guide::step(world);
         let step = settings.step.unwrap_or(finest);
         // `auto`: paths where a path finds the sky by escaping alone (a
         // constant one), photons for a map.
@@ -1044,12 +1044,9 @@ impl PhotonIntegrator {
             None => {}
         }
         res.l = res.direct + res.indirect + res.emission;
-        // The denoising albedo (`super::albedo`), from the march's steps.
-        res.albedo = steps.iter().map(|s| s.w * s.sigma_s).sum::<Rgb>();
         if !ended {
             let le = world.environment.le(d);
             res.l += tr * le;
-            res.albedo += tr * le.min(Rgb::ONE);
             res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
         }
         res

@@ -487,6 +487,7 @@ impl Denoiser {
             &self.oidn,
             quality,
             image.layer(crate::denoise::ALBEDO_LAYER).is_some(),
+            image.layer(crate::denoise::NORMAL_LAYER).is_some(),
             image.layer(crate::denoise::HALF_LAYER).is_some(),
         )
     }
@@ -694,8 +695,7 @@ pub fn render_scene(
         }
         let mut film = Film::new(r.width, r.height, region, r.aovs);
         if r.denoise {
-            integrator.enable_albedo(&world);
-            film = film.with_albedo();
+            film = film.with_guides();
             if integrator.denoise_blended() {
                 film = film.with_half();
             }

@@ -19,7 +19,7 @@ use super::report::{Progress, Reporter};
 use super::resume::Position;
 use crate::error::Result;
 use crate::film::{Film, Region, SampleResult};
-use crate::integrator::{Integrator, PathIntegrator, SampleKey};
+use crate::integrator::{guide, Integrator, PathIntegrator, SampleKey};
 use crate::ray::Ray;
 use crate::sampling::{mix64, Domain};
 use crate::world::World;
@@ -58,6 +58,22 @@ pub fn camera_sample(
     y: u32,
     index: u64,
 ) -> SampleResult {
+    camera_sample_guided(world, integrator, seed, (x, y), index, None)
+}
+
+/// [`camera_sample`] with the denoiser's guides along its camera ray when
+/// it is one of the pixel's first [`guide::GUIDE_SAMPLES`] samples
+/// (`guide_step`: the guides' march step; `None` when no guides are
+/// kept). The guides draw from a stream of their own, so the radiance is
+/// the same bits with or without them.
+pub fn camera_sample_guided(
+    world: &World,
+    integrator: &dyn Integrator,
+    seed: u64,
+    (x, y): (u32, u32),
+    index: u64,
+    guide_step: Option<f32>,
+) -> SampleResult {
     let key = SampleKey {
         seed,
         pixel: pixel_stream(x, y, world.camera.width()),
@@ -70,7 +86,11 @@ pub fn camera_sample(
         world.camera.direction(film),
         integrator.sample_time(world, key),
     );
-    integrator.li(world, &ray, &mut rng, key)
+    let mut r = integrator.li(world, &ray, &mut rng, key);
+    if let Some(step) = guide_step.filter(|_| index < guide::GUIDE_SAMPLES) {
+        r.guide = Some(guide::along(world, &ray, step, &mut key.rng(Domain::Guide)));
+    }
+    r
 }
 
 /// The tiles of `region`, in a fixed shuffled order: the share of tiles
@@ -112,6 +132,7 @@ pub fn render_pass(
     let first = pass as u64 * spp as u64;
     let tiles = tiles(film.region);
     let total = tiles.len();
+    let guide_step = film.has_guides().then(|| guide::step(world));
     let done = AtomicUsize::new(0);
     // Each pixel lies in one tile, so its sums see its samples in order
     // whichever thread adds a tile when: the film is the same bits on any
@@ -126,13 +147,13 @@ pub fn render_pass(
         for y in t.y0..t.y1 {
             for x in t.x0..t.x1 {
                 for s in 0..spp {
-                    out.push(camera_sample(
+                    out.push(camera_sample_guided(
                         world,
                         integrator,
                         seed,
-                        x,
-                        y,
+                        (x, y),
                         first + s as u64,
+                        guide_step,
                     ));
                 }
             }

@@ -194,7 +194,7 @@ pub struct Identity {
     pub region: Region,
     pub integrator: String,
     pub aovs: bool,
-    pub albedo: bool,
+    pub guides: bool,
     pub half: bool,
 }
 
@@ -211,7 +211,7 @@ impl Identity {
             region: film.region,
             integrator: integrator.to_string(),
             aovs: film.has_aovs(),
-            albedo: film.has_albedo(),
+            guides: film.has_guides(),
             half: film.has_half(),
         }
     }
@@ -227,7 +227,7 @@ impl Identity {
             ("seed", self.seed.to_string()),
             ("integrator", self.integrator.clone()),
             ("aovs", self.aovs.to_string()),
-            ("albedo", self.albedo.to_string()),
+            ("guides", self.guides.to_string()),
             ("half", self.half.to_string()),
             ("scene", self.scene.clone()),
         ]
@@ -250,7 +250,7 @@ impl Identity {
                 }
                 "size" => format!("it is of a {theirs} image, not {mine}"),
                 "region" => format!("it is of the pixels {theirs}, not {mine}"),
-                "aovs" | "albedo" | "half" => format!(
+                "aovs" | "guides" | "half" => format!(
                     "its film {} {k}",
                     if theirs == "true" { "has" } else { "has no" }
                 ),

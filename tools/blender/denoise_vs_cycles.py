@@ -5,7 +5,7 @@ truth.
 Usage:
     nice -n 5 VENV/bin/python tools/blender/denoise_vs_cycles.py SCENE.toml TRUTH.exr [TRUTH2.exr] \
         --out DIR [--budgets 10,30] [--integrators auto,path,photon] [--threads 2] \
-        [--vdbphoton target/release/vdbphoton] [--no-cycles]
+        [--vdbphoton target/release/vdbphoton] [--no-cycles] [--seeds 1,2,3]
 
 VENV is the Python 3.11 venv with `pip install bpy==5.0.1`
 (target/venv-bpy); it needs nothing else (numpy comes with bpy). Run it
@@ -38,6 +38,13 @@ What it measures, for each budget B (seconds) in --budgets:
      compare`'s definitions.
 Before each measurement the load average (/proc/loadavg, as `uptime`
 prints it) is recorded.
+
+With --seeds, every renderer renders each budget once per seed (Cycles'
+`seed`, vdbphoton's `--seed`; files named ..._{B}s_seed{S}...), and a
+second table gives each renderer's relMSEs averaged over the seeds and
+ours over Cycles' mean: a denoised image's error varies by 10-20 % from
+seed to seed (on the dense cloud at 10 s, Cycles 5.0e-4 to 6.2e-4), more
+than many a change one wants to measure.
 
 The ground truth: TRUTH.exr's RGBA; given two (independent renders of one
 scene with equal samples), their mean, written to DIR/truth_mean.exr, and
@@ -249,16 +256,22 @@ def loadavg():
 
 # -------------------------------------------------------------------- Cycles
 
-def render_cycles_denoised(scene_path, budget, out_dir, threads):
-    """One Cycles render with OIDN for `budget` seconds; writes the
-    multilayer EXR and the raw and denoised images; returns the record."""
+def tag(budget, seed):
+    """The part of a file name that tells a budget's (and a seed's) renders."""
+    return f'{budget:g}s' + ('' if seed is None else f'_seed{seed}')
+
+
+def render_cycles_denoised(scene_path, budget, out_dir, threads, seed=None):
+    """One Cycles render with OIDN for `budget` seconds (with `seed`, or
+    the scene's); writes the multilayer EXR and the raw and denoised images;
+    returns the record."""
     import bpy
     import render_cycles
 
     desc = copy.deepcopy(render_cycles.load_scene(scene_path))
     r = desc.get('render', {})
     dropped = [k for k in ('integrator', 'denoise') if isinstance(r, dict) and r.pop(k, None) is not None]
-    args = argparse.Namespace(width=None, height=None, spp=None, seed=None, threads=threads,
+    args = argparse.Namespace(width=None, height=None, spp=None, seed=seed, threads=threads,
                               half=False)
     notes = []
     scene, info, _ = render_cycles.build_scene(desc, args, os.path.dirname(scene_path), None, notes)
@@ -292,14 +305,14 @@ def render_cycles_denoised(scene_path, budget, out_dir, threads):
     finally:
         bpy.app.handlers.render_stats.remove(on_stats)
 
-    out = os.path.join(out_dir, f'cycles_{budget:g}s.exr')
+    out = os.path.join(out_dir, f'cycles_{tag(budget, seed)}.exr')
     render_cycles.save_exr(scene, out)
     ch, meta = read_exr(out)
     layer = scene.view_layers[0].name
     den = rgba(ch, f'{layer}.Combined.')
     raw = rgba(ch, f'{layer}.Noisy Image.')
-    write_exr(os.path.join(out_dir, f'cycles_{budget:g}s_denoised.exr'), den)
-    write_exr(os.path.join(out_dir, f'cycles_{budget:g}s_raw.exr'), raw)
+    write_exr(os.path.join(out_dir, f'cycles_{tag(budget, seed)}_denoised.exr'), den)
+    write_exr(os.path.join(out_dir, f'cycles_{tag(budget, seed)}_raw.exr'), raw)
 
     samples, t_first, t_last = 0, None, None
     for t, s in status:
@@ -321,23 +334,24 @@ def render_cycles_denoised(scene_path, budget, out_dir, threads):
 
 # ----------------------------------------------------------------- vdbphoton
 
-def render_ours(binary, scene_path, budget, integrator, out_dir, threads):
-    out = os.path.join(out_dir, f'ours_{integrator}_{budget:g}s.exr')
+def render_ours(binary, scene_path, budget, integrator, out_dir, threads, seed=None):
+    name = f'ours_{integrator}_{tag(budget, seed)}'
+    out = os.path.join(out_dir, f'{name}.exr')
     cmd = [binary, 'render', scene_path, '--time', f'{budget:g}s', '--denoise',
            '--threads', str(threads), '--integrator', integrator, '-o', out,
-           '--no-preview', '--quiet']
+           '--no-preview', '--quiet'] + ([] if seed is None else ['--seed', str(seed)])
     load = loadavg()
     t0 = time.time()
     p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     wall = time.time() - t0
-    with open(os.path.join(out_dir, f'ours_{integrator}_{budget:g}s.log'), 'w') as f:
+    with open(os.path.join(out_dir, f'{name}.log'), 'w') as f:
         f.write(' '.join(cmd) + '\n' + p.stdout)
     if p.returncode != 0:
         raise RuntimeError(f'{" ".join(cmd)} failed ({p.returncode}):\n{p.stdout}')
     ch, meta = read_exr(out)
     den = rgba(ch)
     raw = rgba(ch, 'noisy.')
-    write_exr(os.path.join(out_dir, f'ours_{integrator}_{budget:g}s_raw.exr'), raw)
+    write_exr(os.path.join(out_dir, f'{name}_raw.exr'), raw)
     summary = [line for line in p.stdout.splitlines() if line.startswith('rendered ')]
     return dict(renderer='vdbphoton', integrator=integrator, budget=budget, load=load,
                 wall=wall, used=meta.get('vdbphoton/integrator'),
@@ -354,8 +368,31 @@ def fmt(x, spec):
     return '-' if x is None else format(x, spec)
 
 
+def mean_table(scene_name, rows):
+    """Per budget and renderer, the relMSEs' means over the seeds, and
+    ours over Cycles' mean denoised relMSE."""
+    head = ['scene', 'budget', 'renderer', 'integrator', 'seeds', 'mean spp', 'mean relMSE raw',
+            'mean relMSE denoised', 'ours/cycles denoised (means)']
+    lines = ['| ' + ' | '.join(head) + ' |', '|' + '---|' * len(head)]
+    groups = {}
+    for r in rows:
+        groups.setdefault((r['budget'], r['renderer'], r['integrator']), []).append(r)
+    for (b, renderer, integ), rs in groups.items():
+        den = sum(r['relmse_denoised'] for r in rs) / len(rs)
+        cyc = groups.get((b, 'cycles', 'path'))
+        vs = None
+        if cyc is not None and renderer != 'cycles':
+            vs = den / (sum(r['relmse_denoised'] for r in cyc) / len(cyc))
+        lines.append('| ' + ' | '.join([
+            scene_name, f'{b:g} s', renderer, integ, str(len(rs)),
+            f"{sum(r['spp'] for r in rs) / len(rs):.0f}",
+            f"{sum(r['relmse_raw'] for r in rs) / len(rs):.4g}", f'{den:.4g}',
+            fmt(vs, '.3f')]) + ' |')
+    return '\n'.join(lines)
+
+
 def table(scene_name, rows):
-    head = ['scene', 'budget', 'renderer', 'integrator', 'load', 'wall s', 'spp/passes',
+    head = ['scene', 'budget', 'seed', 'renderer', 'integrator', 'load', 'wall s', 'spp/passes',
             'relMSE raw', 'relMSE denoised', 'mean ratio denoised', 'mean ratio raw',
             'ours/cycles denoised']
     lines = ['| ' + ' | '.join(head) + ' |', '|' + '---|' * len(head)]
@@ -363,7 +400,8 @@ def table(scene_name, rows):
         integ = r['integrator'] + (f" ({r['used']})" if r.get('used') and r['used'] != r['integrator'] else '')
         sp = f"{r['spp']}" if r['renderer'] == 'cycles' else f"{r['spp']} / {r['passes']}"
         lines.append('| ' + ' | '.join([
-            scene_name, f"{r['budget']:g} s", r['renderer'], integ, r['load'], f"{r['wall']:.2f}", sp,
+            scene_name, f"{r['budget']:g} s", fmt(r.get('asked_seed'), ''), r['renderer'], integ,
+            r['load'], f"{r['wall']:.2f}", sp,
             f"{r['relmse_raw']:.4g}", f"{r['relmse_denoised']:.4g}",
             f"{r['ratio_denoised']:.5f}", f"{r['ratio_raw']:.5f}",
             fmt(r.get('vs_cycles'), '.3f')]) + ' |')
@@ -380,11 +418,16 @@ def main(argv):
     ap.add_argument('--threads', type=int, default=2)
     ap.add_argument('--vdbphoton', default=os.path.join(REPO, 'target', 'release', 'vdbphoton'))
     ap.add_argument('--no-cycles', action='store_true', help='skip the Cycles renders')
+    ap.add_argument('--seeds', default='',
+                    help='comma-separated seeds: every renderer renders each budget once per seed '
+                         '(a denoised image\'s error varies from seed to seed by 10-20 %%), and a '
+                         'second table gives the means over seeds (default: each renderer\'s own seed, once)')
     a = ap.parse_args(argv)
     if len(a.truth) > 2:
         ap.error('give one ground truth EXR or two to average')
     budgets = [float(b) for b in a.budgets.split(',') if b.strip()]
     integrators = [i.strip() for i in a.integrators.split(',') if i.strip()]
+    seeds = [int(s) for s in a.seeds.split(',') if s.strip()] or [None]
     scene_path = os.path.abspath(a.scene)
     out_dir = os.path.abspath(a.out)
     os.makedirs(out_dir, exist_ok=True)
@@ -418,14 +461,17 @@ def main(argv):
     print(f'start {info["start"]}, load {info["start_load"]}, niceness {info["nice"]}', flush=True)
 
     rows = []
-    for b in budgets:
+    for b, seed in [(b, s) for b in budgets for s in seeds]:
         batch = []
+        at = f'[{b:g} s' + ('' if seed is None else f', seed {seed}') + ']'
         if not a.no_cycles:
-            print(f'[{b:g} s] cycles + OIDN (load {loadavg()})', flush=True)
-            batch.append(render_cycles_denoised(scene_path, b, out_dir, a.threads))
+            print(f'{at} cycles + OIDN (load {loadavg()})', flush=True)
+            batch.append(render_cycles_denoised(scene_path, b, out_dir, a.threads, seed))
         for integ in integrators:
-            print(f'[{b:g} s] vdbphoton --integrator {integ} --denoise (load {loadavg()})', flush=True)
-            batch.append(render_ours(a.vdbphoton, scene_path, b, integ, out_dir, a.threads))
+            print(f'{at} vdbphoton --integrator {integ} --denoise (load {loadavg()})', flush=True)
+            batch.append(render_ours(a.vdbphoton, scene_path, b, integ, out_dir, a.threads, seed))
+        for r in batch:
+            r['asked_seed'] = seed
         cyc = next((r for r in batch if r['renderer'] == 'cycles'), None)
         for r in batch:
             r['relmse_raw'] = relmse(r['raw'], truth)
@@ -448,6 +494,8 @@ def main(argv):
 
     info['wall'] = time.time() - t_start
     text = table(name, rows)
+    if seeds != [None]:
+        text += '\n\nMeans over the seeds ' + ', '.join(map(str, seeds)) + ':\n\n' + mean_table(name, rows)
     notes = []
     if 'truth_halves_relmse' in info:
         notes.append(f"Ground truth: mean of two renders; their relMSE against each other "
