@@ -9,7 +9,7 @@
 
 use crate::image::{Image, ImageError};
 use crate::Rgb;
-use glam::{DVec3, Vec3, Vec4};
+use glam::{DVec3, Vec4};
 
 /// What one camera sample returns.
 #[derive(Debug, Clone, Copy, Default)]
@@ -25,19 +25,9 @@ pub struct SampleResult {
     /// Transmittance along the camera ray (mean over channels; alpha is 1
     /// minus it).
     pub transmittance: f32,
-    /// The denoiser's guides along the camera ray, for the samples that
-    /// carry them (`crate::integrator::guide`).
-    pub guide: Option<Guide>,
-}
-
-/// The denoiser's guides seen by one camera sample
-/// (`crate::integrator::guide`).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Guide {
-    /// The denoising albedo.
-    pub albedo: Rgb,
-    /// The weighted normal of the volume's apparent surface (world space).
-    pub normal: Vec3,
+    /// The denoising albedo along the camera ray, for the samples that
+    /// carry the denoiser's guide (`crate::integrator::guide`).
+    pub albedo: Option<Rgb>,
 }
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)` in a `width` x `height`
@@ -166,12 +156,11 @@ struct AovSums {
     emission: Rgb,
 }
 
-/// Sums of one pixel's denoising guides, over the samples that carried
-/// them (the first few: `crate::integrator::guide::GUIDE_SAMPLES`).
+/// Sums of one pixel's denoising albedo, over the samples that carried it
+/// (the first few: `crate::integrator::guide::GUIDE_SAMPLES`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct GuideSums {
     albedo: Rgb,
-    normal: Vec3,
     samples: u32,
 }
 
@@ -188,7 +177,7 @@ pub struct Film {
     transmittance: Vec<f64>,
     /// AOV sums, when they are kept.
     aovs: Option<Vec<AovSums>>,
-    /// Sums of the denoising guides, when the render is denoised.
+    /// Sums of the denoising albedo, when the render is denoised.
     guides: Option<Vec<GuideSums>>,
     /// Radiance sums of every other sample (the 2nd, 4th, ...), when the
     /// render is denoised: one half of the samples, independent of the
@@ -201,7 +190,7 @@ pub struct Film {
 }
 
 impl Film {
-    /// Bytes per pixel the denoising guides and half sums add at most
+    /// Bytes per pixel the denoising albedo and half sums add at most
     /// ([`Self::with_guides`], [`Self::with_half`]).
     pub const DENOISE_BYTES: usize = std::mem::size_of::<GuideSums>() + std::mem::size_of::<Rgb>();
 
@@ -222,9 +211,8 @@ impl Film {
         }
     }
 
-    /// The film also keeps the denoising guides of the samples that carry
-    /// them ([`SampleResult::guide`]), written as the layers `albedo` and
-    /// `normal`.
+    /// The film also keeps the denoising albedo of the samples that carry
+    /// it ([`SampleResult::albedo`]), written as the layer `albedo`.
     pub fn with_guides(self) -> Self {
         let n = self.samples.len();
         Self {
@@ -249,7 +237,7 @@ impl Film {
         self.half.is_some()
     }
 
-    /// Whether the film keeps the denoising guides.
+    /// Whether the film keeps the denoising albedo.
     pub fn has_guides(&self) -> bool {
         self.guides.is_some()
     }
@@ -297,10 +285,9 @@ impl Film {
             a[i].indirect += s.indirect;
             a[i].emission += s.emission;
         }
-        if let (Some(a), Some(g)) = (&mut self.guides, s.guide) {
-            if g.albedo.is_finite() && g.normal.is_finite() {
-                a[i].albedo += g.albedo;
-                a[i].normal += g.normal;
+        if let (Some(a), Some(albedo)) = (&mut self.guides, s.albedo) {
+            if albedo.is_finite() {
+                a[i].albedo += albedo;
                 a[i].samples += 1;
             }
         }
@@ -326,7 +313,6 @@ impl Film {
         if let (Some(a), Some(b)) = (&mut self.guides, &other.guides) {
             for (x, y) in a.iter_mut().zip(b) {
                 x.albedo += y.albedo;
-                x.normal += y.normal;
                 x.samples += y.samples;
             }
         }
@@ -348,13 +334,13 @@ impl Film {
         let n = self.samples.len() as u64;
         n * (3 * 8 + 8 + 4)
             + self.aovs.as_ref().map_or(0, |_| n * 9 * 4)
-            + self.guides.as_ref().map_or(0, |_| n * 7 * 4)
+            + self.guides.as_ref().map_or(0, |_| n * 4 * 4)
             + self.half.as_ref().map_or(0, |_| n * 3 * 4)
     }
 
     /// Writes every sum and count, little-endian, bit for bit (a resumed
     /// render's film, `crate::render::resume`): radiance, transmittance,
-    /// counts, then the AOVs, the guides and the half sums when kept.
+    /// counts, then the AOVs, the albedo and the half sums when kept.
     pub fn write_sums(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
         fn put<T, const N: usize>(
             w: &mut impl std::io::Write,
@@ -395,9 +381,8 @@ impl Film {
             })?;
         }
         if let Some(a) = &self.guides {
-            put::<_, 28>(w, a, |g, b| {
+            put::<_, 16>(w, a, |g, b| {
                 f32s(b, g.albedo);
-                f32s(b, g.normal);
                 b.extend_from_slice(&g.samples.to_le_bytes());
             })?;
         }
@@ -448,10 +433,9 @@ impl Film {
             })?;
         }
         if let Some(a) = &mut self.guides {
-            get::<_, 28>(r, a, |s| GuideSums {
+            get::<_, 16>(r, a, |s| GuideSums {
                 albedo: rgb_at(s, 0),
-                normal: rgb_at(s, 3),
-                samples: u32::from_le_bytes(s[24..28].try_into().unwrap()),
+                samples: u32::from_le_bytes(s[12..16].try_into().unwrap()),
             })?;
         }
         if let Some(a) = &mut self.half {
@@ -501,8 +485,7 @@ impl Film {
     /// The means as an image of the region, placed in the whole image (its
     /// data window): RGBA (alpha = 1 − the transmittance along the camera
     /// ray) and, when kept, the AOV layers `direct`, `indirect`, `emission`
-    /// and `transmittance`, and the denoiser's `albedo`, `normal` and
-    /// `half`.
+    /// and `transmittance`, and the denoiser's `albedo` and `half`.
     pub fn to_image(&self) -> Result<Image, ImageError> {
         let (w, h) = (self.region.width() as usize, self.region.height() as usize);
         let tr = self.mean_transmittance();
@@ -533,14 +516,10 @@ impl Film {
             }
         }
         if let Some(a) = &self.guides {
-            let inv = |g: &GuideSums| 1.0 / g.samples.max(1) as f32;
             let layer = image.add_rgb_layer(crate::denoise::ALBEDO_LAYER)?;
             for (i, g) in a.iter().enumerate() {
-                layer.set(i % w, i / w, &(g.albedo * inv(g)).to_array());
-            }
-            let layer = image.add_layer(crate::denoise::NORMAL_LAYER, &["X", "Y", "Z"])?;
-            for (i, g) in a.iter().enumerate() {
-                layer.set(i % w, i / w, &(g.normal * inv(g)).to_array());
+                let inv = 1.0 / g.samples.max(1) as f32;
+                layer.set(i % w, i / w, &(g.albedo * inv).to_array());
             }
         }
         // The half's mean needs a sample in it everywhere.
@@ -594,31 +573,25 @@ mod tests {
         assert_eq!(back, film);
     }
 
-    /// The guides' layers are means over the samples that carried guides
-    /// (the first few of a pixel), not over all of its samples; merged
-    /// films add their guide counts.
+    /// The albedo layer is the mean over the samples that carried the
+    /// guide (the first few of a pixel), not over all of its samples;
+    /// merged films add their guide counts.
     #[test]
-    fn the_guides_are_the_mean_of_the_samples_that_carry_them() {
+    fn the_albedo_is_the_mean_of_the_samples_that_carry_it() {
         let mut film = Film::new(1, 1, Region::full(1, 1), false).with_guides();
-        let guided = |a: f32, n: Vec3| SampleResult {
-            guide: Some(Guide {
-                albedo: Rgb::splat(a),
-                normal: n,
-            }),
+        let guided = |a: f32| SampleResult {
+            albedo: Some(Rgb::splat(a)),
             ..SampleResult::default()
         };
-        film.add(0, 0, &guided(0.2, Vec3::X));
-        film.add(0, 0, &guided(0.6, Vec3::Y));
+        film.add(0, 0, &guided(0.2));
+        film.add(0, 0, &guided(0.6));
         film.add(0, 0, &SampleResult::default());
         let mut other = Film::new(1, 1, Region::full(1, 1), false).with_guides();
-        other.add(0, 0, &guided(0.7, Vec3::Z));
+        other.add(0, 0, &guided(0.7));
         film.merge(&other).unwrap();
         let image = film.to_image().unwrap();
         let albedo = image.layer(crate::denoise::ALBEDO_LAYER).unwrap();
         assert_eq!(albedo.get(0, 0), &[0.5, 0.5, 0.5]);
-        let normal = image.layer(crate::denoise::NORMAL_LAYER).unwrap();
-        let third = 1.0f32 / 3.0;
-        assert_eq!(normal.get(0, 0), &[third, third, third]);
         // Kept in the resume state, bit for bit.
         let mut bytes = Vec::new();
         film.write_sums(&mut bytes).unwrap();

@@ -1093,8 +1093,7 @@ fn blender_renders_with_the_vdbphoton_engine() {
     assert!(cli["R"].iter().any(|&b| b != 0));
 
     // With Denoise: Combined is the denoised image, the raw one and the
-    // guides are the passes Noisy Image, Denoising Albedo and Denoising
-    // Normal, each as the
+    // guide are the passes Noisy Image and Denoising Albedo, each as the
     // command line writes them. (Needs Open Image Denoise, which CI
     // installs; elsewhere, without it, a note.)
     match vdbphoton::denoise::Oidn::load(1) {
@@ -1114,7 +1113,6 @@ fn blender_renders_with_the_vdbphoton_engine() {
                     ("noisy.R", "Noisy Image.R"),
                     ("noisy.A", "Noisy Image.A"),
                     ("albedo.G", "Denoising Albedo.G"),
-                    ("normal.X", "Denoising Normal.X"),
                 ],
             );
             assert_ne!(cli["R"], cli["noisy.R"], "the image was not denoised");

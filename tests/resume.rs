@@ -368,10 +368,7 @@ fn a_state_of_another_build_is_refused() {
             l: vdbphoton::Rgb::new(0.1, 0.2, 0.3),
             direct: vdbphoton::Rgb::new(0.01, 0.02, 0.03),
             transmittance: 0.5,
-            guide: Some(vdbphoton::film::Guide {
-                albedo: vdbphoton::Rgb::new(0.7, 0.8, 0.9),
-                normal: glam::Vec3::new(0.0, -0.5, 0.25),
-            }),
+            albedo: Some(vdbphoton::Rgb::new(0.7, 0.8, 0.9)),
             ..Default::default()
         },
     );

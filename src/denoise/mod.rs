@@ -2,16 +2,16 @@
 //! Blender does for a final render.
 //!
 //! The filter is OIDN's `RT` for HDR images, guided by the render's
-//! denoising albedo and normal (`crate::integrator::guide`). The albedo is,
-//! for volumes, the scattering colour seen along the camera ray,
-//! ∫ T(s)·σs(s) ds, plus what the ray sees of the environment behind (at
-//! most 1), as Cycles writes into its Denoising Albedo pass for volumes
-//! (`film_write_denoising_features_volume`: the interaction probability of
-//! each segment times σs/σt). Cycles writes no normal for volumes; ours is
-//! the volume's apparent surface, −∇σt/|∇σt| with the albedo's weights,
-//! which lowered the denoised error on the dense reference cloud. The
-//! guides are averaged over a pixel's first samples, so they are nearly
-//! noise-free and go in as clean (`cleanAux`).
+//! denoising albedo: for volumes, the scattering colour seen along the
+//! camera ray, ∫ T(s)·σs(s) ds, plus what the ray sees of the environment
+//! behind (at most 1), as Cycles writes into its Denoising Albedo pass for
+//! volumes (`film_write_denoising_features_volume`: the interaction
+//! probability of each segment times σs/σt). No normal guide: volumes have
+//! none (one made of the density's gradient gained nothing measurable and
+//! doubled the denoiser's time: docs/performance.md, "Denoising"). The
+//! guide is averaged over a pixel's first samples
+//! (`crate::integrator::guide`), so it is nearly noise-free and goes in as
+//! clean (`cleanAux`).
 //!
 //! What an image holds after denoising: RGBA is the denoised beauty (alpha
 //! kept), as Blender's Combined pass is; the layer `noisy` (Cycles' "Noisy
@@ -29,9 +29,6 @@ pub use oidn::{Oidn, Quality, HOW_TO_GET};
 pub const NOISY_LAYER: &str = "noisy";
 /// The layer of the denoising albedo.
 pub const ALBEDO_LAYER: &str = "albedo";
-/// The layer of the denoising normal (channels X, Y, Z, as Blender's
-/// Normal pass).
-pub const NORMAL_LAYER: &str = "normal";
 /// The layer of the mean of every other sample (`crate::film::Film`), by
 /// which [`blend`] measures the denoiser's error.
 pub const HALF_LAYER: &str = "half";
@@ -57,15 +54,6 @@ pub fn denoise_image(oidn: &Oidn, image: &mut Image, quality: Quality) -> Result
         .map(|p| p.truncate().to_array())
         .collect();
     let albedo = image.layer(ALBEDO_LAYER).and_then(rgb_of);
-    // The normal guide only with the albedo (OIDN takes no normal alone).
-    let normal = albedo
-        .as_ref()
-        .and(image.layer(NORMAL_LAYER))
-        .and_then(|l| channels_of(l, ["X", "Y", "Z"]));
-    let guides = oidn::Guides {
-        albedo: albedo.as_deref(),
-        normal: normal.as_deref(),
-    };
     let finite =
         |out: Vec<[f32; 3]>| match out.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             Some(i) => Err(format!(
@@ -75,9 +63,9 @@ pub fn denoise_image(oidn: &Oidn, image: &mut Image, quality: Quality) -> Result
             )),
             None => Ok(out),
         };
-    let mut out = finite(oidn.denoise(&color, guides, true, w, h, quality)?)?;
+    let mut out = finite(oidn.denoise(&color, albedo.as_deref(), true, w, h, quality)?)?;
     if let Some(half) = image.layer(HALF_LAYER).and_then(rgb_of) {
-        let denoised_half = finite(oidn.denoise(&half, guides, true, w, h, quality)?)?;
+        let denoised_half = finite(oidn.denoise(&half, albedo.as_deref(), true, w, h, quality)?)?;
         out = blend(&color, &half, &out, &denoised_half, w, h);
     }
     let raw: Vec<f32> = image.pixels().iter().flat_map(|p| p.to_array()).collect();
@@ -94,12 +82,7 @@ pub fn denoise_image(oidn: &Oidn, image: &mut Image, quality: Quality) -> Result
 /// The R, G, B channels of an image layer, found by name (a file read back
 /// lists them in its own order).
 fn rgb_of(l: &crate::image::AovLayer) -> Option<Vec<[f32; 3]>> {
-    channels_of(l, ["R", "G", "B"])
-}
-
-/// Three channels of an image layer, by name.
-fn channels_of(l: &crate::image::AovLayer, names: [&str; 3]) -> Option<Vec<[f32; 3]>> {
-    let k = names.map(|c| l.channel_index(c));
+    let k = ["R", "G", "B"].map(|c| l.channel_index(c));
     let [Some(r), Some(g), Some(b)] = k else {
         return None;
     };
@@ -234,13 +217,7 @@ pub fn restore_raw(image: &mut Image) -> bool {
 }
 
 /// The header's description of the denoiser.
-pub fn describe(
-    oidn: &Oidn,
-    quality: Quality,
-    albedo: bool,
-    normal: bool,
-    blended: bool,
-) -> String {
+pub fn describe(oidn: &Oidn, quality: Quality, albedo: bool, blended: bool) -> String {
     format!(
         "Intel Open Image Denoise {} (RT filter, HDR, quality {}, {}{})",
         oidn.version,
@@ -249,11 +226,7 @@ pub fn describe(
             Quality::Balanced => "balanced",
             Quality::Fast => "fast",
         },
-        match (albedo, normal) {
-            (true, true) => "albedo and normal guides",
-            (true, false) => "albedo guide",
-            _ => "no guide",
-        },
+        if albedo { "albedo guide" } else { "no guide" },
         if blended {
             "; blended with the raw image by their errors, measured on half the samples"
         } else {

@@ -121,14 +121,6 @@ api! {
     oidnReleaseFilter: fn(Filter),
 }
 
-/// The guides of a denoising: OIDN's RT filter takes an albedo, and a
-/// normal only beside an albedo. Each `width * height` RGB pixels.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Guides<'a> {
-    pub albedo: Option<&'a [[f32; 3]]>,
-    pub normal: Option<&'a [[f32; 3]]>,
-}
-
 /// A loaded library and a committed CPU device on it. The library is never
 /// closed: OIDN keeps its TBB threads for the process's life.
 pub struct Oidn {
@@ -280,20 +272,19 @@ impl Oidn {
     }
 
     /// Denoises `color` (RGB, `width * height` pixels, row-major) with the
-    /// RT filter for HDR images, guided by `guides` (`clean_aux`: the
-    /// guides have no noise to remove), into a new image.
+    /// RT filter for HDR images, guided by `albedo` when given (`clean_aux`:
+    /// the guide has no noise to remove), into a new image.
     pub fn denoise(
         &self,
         color: &[[f32; 3]],
-        guides: Guides,
+        albedo: Option<&[[f32; 3]]>,
         clean_aux: bool,
         width: usize,
         height: usize,
         quality: Quality,
     ) -> Result<Vec<[f32; 3]>, String> {
         let n = width * height;
-        let Guides { albedo, normal } = guides;
-        if color.len() != n || [albedo, normal].iter().flatten().any(|a| a.len() != n) {
+        if color.len() != n || albedo.is_some_and(|a| a.len() != n) {
             return Err(format!(
                 "denoising a {width} x {height} image needs {n} pixels per input"
             ));
@@ -301,7 +292,7 @@ impl Oidn {
         let mut output = vec![[0.0f32; 3]; n];
         // SAFETY: the images are `n` packed RGB f32 pixels each and outlive
         // the filter, which is released before returning; OIDN reads color
-        // and the guides and writes output.
+        // and albedo and writes output.
         unsafe {
             let a = &self.api;
             let filter = (a.oidnNewFilter)(self.device, c"RT".as_ptr());
@@ -325,9 +316,6 @@ impl Oidn {
             set(c"color", color.as_ptr());
             if let Some(al) = albedo {
                 set(c"albedo", al.as_ptr());
-            }
-            if let Some(nm) = normal {
-                set(c"normal", nm.as_ptr());
             }
             set(c"output", output.as_mut_ptr());
             (a.oidnSetFilterBool)(filter, c"hdr".as_ptr(), true);

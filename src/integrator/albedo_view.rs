@@ -46,9 +46,8 @@ impl Integrator for AlbedoView {
     }
 
     fn li(&self, world: &World, ray: &Ray, _rng: &mut Rng, key: SampleKey) -> SampleResult {
-        let g = super::guide::along(world, ray, self.step, &mut key.rng(Domain::Guide));
         SampleResult {
-            l: g.albedo,
+            l: super::guide::along(world, ray, self.step, &mut key.rng(Domain::Guide)),
             transmittance: 0.0,
             ..Default::default()
         }

@@ -487,7 +487,6 @@ impl Denoiser {
             &self.oidn,
             quality,
             image.layer(crate::denoise::ALBEDO_LAYER).is_some(),
-            image.layer(crate::denoise::NORMAL_LAYER).is_some(),
             image.layer(crate::denoise::HALF_LAYER).is_some(),
         )
     }

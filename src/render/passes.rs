@@ -61,11 +61,11 @@ pub fn camera_sample(
     camera_sample_guided(world, integrator, seed, (x, y), index, None)
 }
 
-/// [`camera_sample`] with the denoiser's guides along its camera ray when
-/// it is one of the pixel's first [`guide::GUIDE_SAMPLES`] samples
-/// (`guide_step`: the guides' march step; `None` when no guides are
-/// kept). The guides draw from a stream of their own, so the radiance is
-/// the same bits with or without them.
+/// [`camera_sample`] with the denoiser's guide (the albedo) along its
+/// camera ray when it is one of the pixel's first [`guide::GUIDE_SAMPLES`]
+/// samples (`guide_step`: the guide's march step; `None` when no guide is
+/// kept). The guide draws from a stream of its own, so the radiance is the
+/// same bits with or without it.
 pub fn camera_sample_guided(
     world: &World,
     integrator: &dyn Integrator,
@@ -88,7 +88,7 @@ pub fn camera_sample_guided(
     );
     let mut r = integrator.li(world, &ray, &mut rng, key);
     if let Some(step) = guide_step.filter(|_| index < guide::GUIDE_SAMPLES) {
-        r.guide = Some(guide::along(world, &ray, step, &mut key.rng(Domain::Guide)));
+        r.albedo = Some(guide::along(world, &ray, step, &mut key.rng(Domain::Guide)));
     }
     r
 }

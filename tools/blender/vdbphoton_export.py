@@ -1491,8 +1491,7 @@ BINARY_VERSION = (0, 2)
 # channel ids, EXR layer).
 AOV_PASSES = [('Direct', 3, 'RGB', 'direct'), ('Indirect', 3, 'RGB', 'indirect'),
               ('Emission', 3, 'RGB', 'emission'), ('Transmittance', 1, 'X', 'transmittance')]
-DENOISE_PASSES = [('Noisy Image', 4, 'RGBA', 'noisy'), ('Denoising Albedo', 3, 'RGB', 'albedo'),
-                  ('Denoising Normal', 3, 'XYZ', 'normal')]
+DENOISE_PASSES = [('Noisy Image', 4, 'RGBA', 'noisy'), ('Denoising Albedo', 3, 'RGB', 'albedo')]
 
 
 def read_exr_channels(path):
@@ -1659,8 +1658,7 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
                                'VALUE' if n == 1 else 'COLOR')
         if scene is not None and scene.vdbphoton.denoise:
             for name, n, chan, _ in DENOISE_PASSES:
-                self.register_pass(scene, renderlayer, name, n, chan,
-                                   'VECTOR' if chan == 'XYZ' else 'COLOR')
+                self.register_pass(scene, renderlayer, name, n, chan, 'COLOR')
 
     def render(self, depsgraph):
         import tempfile
@@ -1836,7 +1834,7 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
 
         put('Combined', ['R', 'G', 'B', 'A'])
         for name, n, chan, exr_layer in passes:
-            names = [f'{exr_layer}.{c}' for c in (chan if n > 1 else 'Y')]
+            names = [f'{exr_layer}.{c}' for c in ('RGBA'[:n] if n > 1 else 'Y')]
             if all(x in ch for x in names):
                 put(name, names)
 

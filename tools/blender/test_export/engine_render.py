@@ -10,7 +10,7 @@ CASE:
              passes), OUT_DIR/still.toml (the scene exported as the engine
              exports it) and the engine's command line
   denoise    F12 with Denoise: OUT_DIR/denoised.exr (Combined denoised, Noisy
-             Image, Denoising Albedo, Denoising Normal) and the engine's command line
+             Image, Denoising Albedo) and the engine's command line
   border     F12 of a cropped border against the whole frame's pixels there
   layers     two view layers, each its own image
   animation  Ctrl-F12 over frames 1-2: OUT_DIR/anim_0001.exr, anim_0002.exr
