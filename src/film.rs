@@ -242,11 +242,9 @@ impl Film {
         self.guides.is_some()
     }
 
-    /// Bytes a film of `pixels` pixels takes, for memory checks before a
-    /// render.
-    /// Bytes a film of `pixels` pixels takes (with the AOVs when `aovs`);
-    /// a denoised render's film takes [`Self::DENOISE_BYTES`] a pixel
-    /// more.
+    /// Bytes a film of `pixels` pixels takes (with the AOVs when `aovs`),
+    /// for memory checks before a render; a denoised render's film takes
+    /// [`Self::DENOISE_BYTES`] a pixel more.
     pub fn bytes_for(pixels: usize, aovs: bool) -> usize {
         pixels
             * (std::mem::size_of::<DVec3>()
@@ -564,13 +562,20 @@ mod tests {
         assert_eq!(layer.get(0, 0), &[3.0, 3.0, 3.0]);
         assert_eq!(layer.get(1, 0), &[9.0, 9.0, 9.0]);
         assert_eq!(image.get(0, 0).x, 3.0);
-        // Kept in the resume state, bit for bit.
+        resumes_bit_for_bit(
+            &film,
+            Film::new(2, 1, Region::full(2, 1), false).with_half(),
+        );
+    }
+
+    /// `film`'s sums, written as the resume state and read back into
+    /// `empty` (a film of its layout), are `film` bit for bit.
+    fn resumes_bit_for_bit(film: &Film, mut empty: Film) {
         let mut bytes = Vec::new();
         film.write_sums(&mut bytes).unwrap();
         assert_eq!(bytes.len() as u64, film.sums_bytes());
-        let mut back = Film::new(2, 1, Region::full(2, 1), false).with_half();
-        back.read_sums(&mut bytes.as_slice()).unwrap();
-        assert_eq!(back, film);
+        empty.read_sums(&mut bytes.as_slice()).unwrap();
+        assert_eq!(&empty, film);
     }
 
     /// The albedo layer is the mean over the samples that carried the
@@ -592,12 +597,9 @@ mod tests {
         let image = film.to_image().unwrap();
         let albedo = image.layer(crate::denoise::ALBEDO_LAYER).unwrap();
         assert_eq!(albedo.get(0, 0), &[0.5, 0.5, 0.5]);
-        // Kept in the resume state, bit for bit.
-        let mut bytes = Vec::new();
-        film.write_sums(&mut bytes).unwrap();
-        assert_eq!(bytes.len() as u64, film.sums_bytes());
-        let mut back = Film::new(1, 1, Region::full(1, 1), false).with_guides();
-        back.read_sums(&mut bytes.as_slice()).unwrap();
-        assert_eq!(back, film);
+        resumes_bit_for_bit(
+            &film,
+            Film::new(1, 1, Region::full(1, 1), false).with_guides(),
+        );
     }
 }

@@ -277,7 +277,6 @@ mod tests {
     /// The two halves of a render of `truth` with per-sample noise `sigma`
     /// (each half's mean carries noise sigma), its mean, and what the
     /// stand-in denoiser makes of the whole and of one half.
-    #[allow(clippy::type_complexity)]
     fn render(truth: &[f32], sigma: f32) -> [Vec<[f32; 3]>; 4] {
         let half = |k: u64| -> Vec<[f32; 3]> {
             (0..W * H)
@@ -292,6 +291,15 @@ mod tests {
             .collect();
         let (d, d_a) = (blur(&raw), blur(&a));
         [raw, a, d, d_a]
+    }
+
+    /// A render of `truth` with per-sample noise `sigma` ([`render`]): the
+    /// raw image, and the errors of the raw, denoised and blended images.
+    fn errors(truth: &[f32], sigma: f32) -> (Vec<[f32; 3]>, f64, f64, f64) {
+        let [raw, a, d, d_a] = render(truth, sigma);
+        let out = blend(&raw, &a, &d, &d_a, W, H);
+        let (e_raw, e_d, e_out) = (mse(&raw, truth), mse(&d, truth), mse(&out, truth));
+        (raw, e_raw, e_d, e_out)
     }
 
     /// Where the raw image is nearly clean and the denoiser blurs its
@@ -310,9 +318,7 @@ mod tests {
                 }
             })
             .collect();
-        let [raw, a, d, d_a] = render(&stripes, 0.01);
-        let out = blend(&raw, &a, &d, &d_a, W, H);
-        let (e_raw, e_d, e_out) = (mse(&raw, &stripes), mse(&d, &stripes), mse(&out, &stripes));
+        let (_, e_raw, e_d, e_out) = errors(&stripes, 0.01);
         assert!(
             e_d > 100.0 * e_raw,
             "the stand-in must blur: {e_d} against {e_raw}"
@@ -325,9 +331,7 @@ mod tests {
         let ramp: Vec<f32> = (0..W * H)
             .map(|i| 0.5 + (i % W) as f32 / W as f32)
             .collect();
-        let [raw, a, d, d_a] = render(&ramp, 0.3);
-        let out = blend(&raw, &a, &d, &d_a, W, H);
-        let (e_raw, e_d, e_out) = (mse(&raw, &ramp), mse(&d, &ramp), mse(&out, &ramp));
+        let (raw, e_raw, e_d, e_out) = errors(&ramp, 0.3);
         assert!(
             e_raw > 5.0 * e_d,
             "the stand-in must denoise: {e_raw} against {e_d}"
