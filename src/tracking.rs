@@ -15,10 +15,12 @@
 //!   RGB extinction, with Russian roulette once the estimate is small.
 //! - [`transmittance_emission`]: the same walk also estimating the
 //!   emission that reaches the ray's origin (for camera rays through fire).
+//! - [`sample_t_maj_emission`]: a camera ray's first flight and that walk
+//!   on the same collisions until the flight scatters.
 //! - [`optical_depth`]: deterministic-step quadrature of ∫σt along a segment
 //!   with a jittered start (for the ray-marching integrator).
 
-use crate::medium::{Media, MediumPoint};
+use crate::medium::{Media, MediumPoint, Segment};
 use crate::phase::PhaseFunction;
 use crate::ray::Ray;
 use crate::sampling::{roulette, Rng};
@@ -52,13 +54,21 @@ pub struct Collision<'a> {
     /// albedo.
     pub sigma_c: f32,
     media: &'a Media,
+    /// The optics here and the volume chosen for a scattering event
+    /// ([`Media::eval_scatter`]) when the walk that sampled this collision
+    /// has looked them up already ([`sample_t_maj_emission`]).
+    looked_up: Option<(MediumPoint, usize)>,
 }
 
 impl Collision<'_> {
-    /// The optics here (summed over volumes): one lookup, counted.
+    /// The optics here (summed over volumes): one lookup, counted, unless
+    /// the walk has made it.
     #[inline]
     pub fn medium(&self) -> MediumPoint {
-        self.media.eval(self.p, self.time)
+        match self.looked_up {
+            Some((m, _)) => m,
+            None => self.media.eval(self.p, self.time),
+        }
     }
 }
 
@@ -122,6 +132,7 @@ pub fn sample_t_maj(
                 sigma_maj: rate,
                 sigma_c,
                 media,
+                looked_up: None,
             };
             if !f(&c, rng) {
                 reached_end = false;
@@ -192,7 +203,10 @@ pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
             }
         }
     }
-    let (m, volume) = c.media.eval_scatter(c.p, c.time, u_phase);
+    let (m, volume) = match c.looked_up {
+        Some(l) => l,
+        None => c.media.eval_scatter(c.p, c.time, u_phase),
+    };
     let phase = c.media.phase_of(volume);
     let sigma_t = m.sigma_t();
     let sigma_n = (Rgb::splat(c.sigma_maj) - sigma_t).max(Rgb::ZERO);
@@ -270,17 +284,92 @@ pub fn transmittance_emission(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rn
 /// segments also sum the emission, without a control).
 #[inline(always)]
 fn ratio_walk(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng, emission: bool) -> (Rgb, Rgb) {
-    let Ray { o, d, time } = *ray;
-    let mut tr = Rgb::ONE;
-    let mut emitted = Rgb::ZERO;
-    let mut budget = MAX_TENTATIVE;
-    let emission_rate = media.emission_rate();
-    // Russian roulette on a small estimate; false when it ends at zero.
-    let play = |tr: &mut Rgb, rng: &mut Rng| roulette(tr, TRANSMITTANCE_RR, rng);
-    media.for_each_segment_at(o, d, 0.0, t_max, time, |seg| {
-        let emissive = emission && seg.emission > 0.0;
+    let mut walk = RatioWalk::new(media, ray, emission);
+    media.for_each_segment_at(ray.o, ray.d, 0.0, t_max, ray.time, |seg| {
+        walk.segment(&seg, seg.t0, rng)
+    });
+    (walk.tr, walk.emitted)
+}
+
+/// The state of a ratio-tracking walk ([`ratio_walk`]), which
+/// [`sample_t_maj_emission`] also runs from wherever its flight ends.
+struct RatioWalk<'a> {
+    media: &'a Media,
+    ray: Ray,
+    /// Whether emissive segments sum the emission.
+    emission: bool,
+    emission_rate: f32,
+    /// The transmittance estimate so far.
+    tr: Rgb,
+    /// The emission that reaches the ray's origin so far.
+    emitted: Rgb,
+    budget: u32,
+}
+
+impl<'a> RatioWalk<'a> {
+    fn new(media: &'a Media, ray: &Ray, emission: bool) -> Self {
+        Self {
+            media,
+            ray: *ray,
+            emission,
+            emission_rate: media.emission_rate(),
+            tr: Rgb::ONE,
+            emitted: Rgb::ZERO,
+            budget: MAX_TENTATIVE,
+        }
+    }
+
+    /// Whether `seg` is walked without a control, summing emission.
+    #[inline(always)]
+    fn emissive(&self, seg: &Segment) -> bool {
+        self.emission && seg.emission > 0.0
+    }
+
+    /// The rate of tentative collisions in `seg` when it is walked without
+    /// a control (emission needs every collision's optics).
+    #[inline(always)]
+    fn plain_rate(&self, seg: &Segment) -> f32 {
+        if self.emissive(seg) {
+            seg.max_density.max(self.emission_rate)
+        } else {
+            seg.max_density
+        }
+    }
+
+    /// One tentative collision at the residual rate `rate` with optics `m`
+    /// and control `sigma_c` (0 where emissive): false when the walk ends
+    /// (Russian roulette, or out of tentative collisions: opaque).
+    #[inline(always)]
+    fn collision(
+        &mut self,
+        m: &MediumPoint,
+        sigma_c: f32,
+        rate: f32,
+        emissive: bool,
+        rng: &mut Rng,
+    ) -> bool {
+        // Out of tentative collisions (see MAX_TENTATIVE): opaque.
+        self.budget -= 1;
+        if self.budget == 0 {
+            self.tr = Rgb::ZERO;
+            return false;
+        }
+        if emissive {
+            self.emitted += self.tr * m.emission / rate;
+        }
+        let ratio = Rgb::ONE - (m.sigma_t() - Rgb::splat(sigma_c)) / rate;
+        self.tr *= ratio.clamp(Rgb::ZERO, Rgb::ONE);
+        roulette(&mut self.tr, TRANSMITTANCE_RR, rng)
+    }
+
+    /// Walks `seg` from `t0` on (the exponential's memorylessness lets a
+    /// walk start anywhere): false when the walk ends.
+    #[inline(always)]
+    fn segment(&mut self, seg: &Segment, t0: f32, rng: &mut Rng) -> bool {
+        let Ray { o, d, time } = self.ray;
+        let emissive = self.emissive(seg);
         let (sigma_c, rate) = if emissive {
-            (0.0, seg.max_density.max(emission_rate))
+            (0.0, self.plain_rate(seg))
         } else {
             let sigma_c = seg.min_density.min(seg.max_density);
             (sigma_c, seg.max_density - sigma_c)
@@ -288,39 +377,137 @@ fn ratio_walk(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng, emission: boo
         // The minorant is a valid control for transmittance whatever the
         // albedo or emission: only extinction matters here.
         if sigma_c > 0.0 {
-            tr *= (-sigma_c * (seg.t1 - seg.t0)).exp();
-            if !play(&mut tr, rng) {
+            self.tr *= (-sigma_c * (seg.t1 - t0)).exp();
+            if !roulette(&mut self.tr, TRANSMITTANCE_RR, rng) {
                 return false;
             }
         }
         if rate <= 0.0 {
             return true;
         }
-        let mut t = seg.t0;
+        let mut t = t0;
         loop {
             t -= (1.0 - rng.next_f32()).ln() / rate;
             if t >= seg.t1 {
                 return true;
             }
-            // Out of tentative collisions (see MAX_TENTATIVE): opaque.
-            budget -= 1;
-            if budget == 0 {
-                tr = Rgb::ZERO;
-                return false;
-            }
             count_tentative();
-            let m = media.eval(o + d * t, time);
-            if emissive {
-                emitted += tr * m.emission / rate;
-            }
-            let ratio = Rgb::ONE - (m.sigma_t() - Rgb::splat(sigma_c)) / rate;
-            tr *= ratio.clamp(Rgb::ZERO, Rgb::ONE);
-            if !play(&mut tr, rng) {
+            let m = self.media.eval(o + d * t, time);
+            if !self.collision(&m, sigma_c, rate, emissive, rng) {
                 return false;
             }
         }
+    }
+}
+
+/// [`sample_t_maj`] along a camera ray from its origin, together with
+/// [`transmittance_emission`] over the whole ray, sharing their lookups:
+/// returns what `sample_t_maj` returns, the transmittance and the emission
+/// that reaches the origin.
+///
+/// Where the media may emit, the two walks sample tentative collisions at
+/// the same rate (the majorant raised to the emission rate) and look the
+/// same optics up, so until the flight's first real collision one set of
+/// collisions serves both: each adds its emission and ratio to the walk
+/// and is then decided for the flight. Where nothing emits the flight
+/// samples at the majorant σ̄ and the walk keeps its residual control σc:
+/// it takes each of the flight's collisions with probability (σ̄ − σc)/σ̄
+/// (a Poisson process at the residual rate) and attenuates the stretch
+/// walked by exp(−σc·len). From where the flight ends the walk goes on
+/// alone, as [`transmittance_emission`] does. Its collisions are then a
+/// Poisson process of the walk's rates over the whole ray, the flight's
+/// end being a stopping time (the strong Markov property), so both
+/// estimates keep their expectations; they are only no longer independent.
+/// Camera rays in glowing smoke rarely scatter before they leave it, so
+/// most of the walk was the flight's lookups over again: on Blender's
+/// smoke + fire frame the separate walk was 43 % of the path tracer's time
+/// (docs/performance.md, "The camera ray's emission").
+///
+/// Media with a control (which never emit) or none that emit take the two
+/// walks one after the other.
+pub fn sample_t_maj_emission(
+    media: &Media,
+    ray: &Ray,
+    rng: &mut Rng,
+    mut f: impl FnMut(&Collision, &mut Rng) -> bool,
+) -> (bool, Rgb, Rgb) {
+    if media.control_albedo().is_some() || !media.is_emissive() {
+        let (tr, e) = transmittance_emission(media, ray, f32::INFINITY, rng);
+        return (sample_t_maj(media, ray, f32::INFINITY, rng, f), tr, e);
+    }
+    let Ray { o, d, time } = *ray;
+    let mut walk = RatioWalk::new(media, ray, true);
+    let (mut flying, mut walking) = (true, true);
+    let mut reached_end = true;
+    let mut budget = MAX_TENTATIVE;
+    media.for_each_segment_at(o, d, 0.0, f32::INFINITY, time, |seg| {
+        let mut shared_end = seg.t0;
+        if flying {
+            let rate = walk.plain_rate(&seg);
+            let emissive = walk.emissive(&seg);
+            // Where nothing emits the walk keeps its residual control: of
+            // the flight's collisions it takes each with probability
+            // (σ̄ − σc)/σ̄, a Poisson process at the residual rate, and the
+            // control attenuates the stretch walked analytically.
+            let sigma_c = if emissive {
+                0.0
+            } else {
+                seg.min_density.min(seg.max_density)
+            };
+            shared_end = seg.t1;
+            let mut t = seg.t0;
+            loop {
+                // (A rate of 0: nothing for either here.)
+                if rate <= 0.0 {
+                    break;
+                }
+                t -= (1.0 - rng.next_f32()).ln() / rate;
+                if t >= seg.t1 {
+                    break;
+                }
+                // Out of tentative collisions: the flight ends as in
+                // `sample_t_maj`, and the walk is opaque as in `ratio_walk`.
+                budget -= 1;
+                if budget == 0 {
+                    reached_end = false;
+                    walk.tr = Rgb::ZERO;
+                    return false;
+                }
+                count_tentative();
+                let p = o + d * t;
+                let looked_up = media.eval_scatter(p, time, rng.next_f32());
+                if walking && (sigma_c <= 0.0 || rng.next_f32() * rate >= sigma_c) {
+                    let residual = rate - sigma_c;
+                    walking = walk.collision(&looked_up.0, sigma_c, residual, emissive, rng);
+                }
+                let c = Collision {
+                    t,
+                    p,
+                    time,
+                    sigma_maj: rate,
+                    sigma_c: 0.0,
+                    media,
+                    looked_up: Some(looked_up),
+                };
+                if !f(&c, rng) {
+                    flying = false;
+                    reached_end = false;
+                    shared_end = t;
+                    break;
+                }
+            }
+            if walking && sigma_c > 0.0 {
+                walk.tr *= (-sigma_c * (shared_end - seg.t0)).exp();
+                walking = roulette(&mut walk.tr, TRANSMITTANCE_RR, rng);
+            }
+        }
+        if !walking {
+            return flying;
+        }
+        // The flight has ended (here or before): the walk alone from there.
+        flying || walk.segment(&seg, shared_end, rng)
     });
-    (tr, emitted)
+    (reached_end, walk.tr, walk.emitted)
 }
 
 /// Optical depth ∫σt dt over `[t0, t1]` of `ray` by the midpoint rule

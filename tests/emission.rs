@@ -379,6 +379,133 @@ fn camera_ray_emission_through_smoke_in_front() {
     assert_close("emission behind smoke", est, Rgb::splat(want_e), 0.003);
 }
 
+/// One 8^3 block of voxels of edge `h` from world point `lo` whose
+/// densities vary from voxel to voxel between 0.5 and 1 (a fixed hash), so
+/// that every majorant cell's minorant lies below its voxels and its
+/// majorant above them.
+fn lumpy_block(lo: DVec3, h: f64) -> Grid<f32> {
+    let xf = DAffine3::from_translation(lo + DVec3::splat(0.5 * h))
+        * DAffine3::from_scale(DVec3::splat(h));
+    let mut p = GridParts::new("density", 0.0f32, xf);
+    p.brick_origins.push(IVec3::ZERO);
+    p.values.extend((0u32..512).map(|v| {
+        let x = v.wrapping_mul(2_654_435_761) >> 16;
+        0.5 + 0.5 * (x & 0xff) as f32 / 255.0
+    }));
+    p.masks.push([u64::MAX; 8]);
+    Grid::from_parts(p).unwrap()
+}
+
+#[test]
+fn the_first_flight_and_the_emission_walk_share_their_collisions() {
+    // Smoke that does not glow (σa 0.25, σs 0.5 per unit density, lumpy,
+    // x ∈ [−4, 0]: the walk keeps a residual control there) in front of a
+    // glowing, scattering slab (σa 0.5, σs 0.5, emission 1 per unit length,
+    // x ∈ [0, 4], where the walk's rate is the emission rate 2 against
+    // σt = 1), seen along +x. `sample_t_maj_emission` runs the camera
+    // ray's flight (decided by `collide`) and the emission walk on the same
+    // collisions, the walk alone after the flight scatters. Each must keep
+    // its own expectation, taken from the field itself by a fine walk
+    // along the ray: T = e^{−τ}, the emission E = ∫ e(t)·e^{−τ(t)} dt; the
+    // flight crosses unscattered with probability e^{−τ} and scatters at
+    // the mean depth the field gives. Stopping the walk with the flight,
+    // counting a shared collision's emission twice, or taking the control's
+    // share of the smoke both analytically and at every collision, misses
+    // them.
+    let media = Media::new(vec![
+        volume(
+            lumpy_block(DVec3::new(-4.0, -2.0, -2.0), 0.5),
+            ExtraGrids::default(),
+            raw(0.25, 0.5, 0.0, PhaseFunction::Isotropic),
+        ),
+        volume(
+            const_box("density", 1.0, DVec3::new(0.0, -1.0, -1.0), 0.5, IVec3::ONE),
+            ExtraGrids::default(),
+            raw(0.5, 0.5, 1.0, PhaseFunction::Isotropic),
+        ),
+    ]);
+    assert_eq!(media.emission_rate(), 2.0);
+    let ray = Ray::new(Vec3::new(-5.0, 0.1, -0.2), Vec3::X);
+    // The expectations, from the probability of a first collision in each
+    // step of a fine walk (the faces are ramps half a voxel wide).
+    let (steps, h) = (100_000, 1e-4f64);
+    let (mut tau, mut num, mut want_e) = (0.0f64, 0.0f64, 0.0f64);
+    for k in 0..steps {
+        let t = (k as f64 + 0.5) * h;
+        let m = media.eval(ray.at(t as f32), 0.0);
+        let s = m.sigma_t().x as f64;
+        num += t * (-tau).exp() * (1.0 - (-s * h).exp());
+        want_e += m.emission.x as f64 * (-(tau + 0.5 * s * h)).exp() * h;
+        tau += s * h;
+    }
+    let want_t = (-tau).exp();
+    let want_depth = num / (1.0 - want_t);
+    let n = 200_000u64;
+    let mut sums = [0.0f64; 7]; // T, T², E, E², crossings, depth, depth²
+    let mut scattered = 0u64;
+    for i in 0..n {
+        let mut rng = Rng::new(Domain::Test, 29, 0, i);
+        let mut depth = None;
+        let (left, t, e) =
+            vdbphoton::tracking::sample_t_maj_emission(&media, &ray, &mut rng, |c, rng| {
+                match vdbphoton::tracking::collide(c, Rgb::ONE, rng) {
+                    Some(step) if step.scatter => {
+                        depth = Some(c.t);
+                        false
+                    }
+                    Some(_) => true,
+                    None => false,
+                }
+            });
+        let (t, e) = (t.x as f64, e.x as f64);
+        sums[0] += t;
+        sums[1] += t * t;
+        sums[2] += e;
+        sums[3] += e * e;
+        if left {
+            sums[4] += 1.0;
+        }
+        if let Some(x) = depth {
+            sums[5] += x as f64;
+            sums[6] += (x as f64).powi(2);
+            scattered += 1;
+        }
+    }
+    let nf = n as f64;
+    let mean_se = |s: f64, s2: f64| {
+        let m = s / nf;
+        (m, ((s2 / nf - m * m) / (nf - 1.0)).sqrt())
+    };
+    let (mt, st) = mean_se(sums[0], sums[1]);
+    let (me, se) = mean_se(sums[2], sums[3]);
+    assert!(
+        (mt - want_t).abs() <= 4.0 * st + 1e-3 * want_t,
+        "transmittance {mt} ± {st} against {want_t}"
+    );
+    assert!(
+        (me - want_e).abs() <= 4.0 * se + 1e-3 * want_e,
+        "emission {me} ± {se} against {want_e}"
+    );
+    let crossed = sums[4] / nf;
+    let sc = (want_t * (1.0 - want_t) / nf).sqrt();
+    assert!(
+        (crossed - want_t).abs() <= 4.0 * sc,
+        "unscattered {crossed} against {want_t}"
+    );
+    assert_eq!(
+        scattered as f64 + sums[4],
+        nf,
+        "every flight crosses or scatters"
+    );
+    let ns = scattered as f64;
+    let depth = sums[5] / ns;
+    let sd = ((sums[6] / ns - depth * depth) / (ns - 1.0)).sqrt();
+    assert!(
+        (depth - want_depth).abs() <= 4.0 * sd,
+        "scattering depth {depth} against {want_depth}"
+    );
+}
+
 #[test]
 fn emission_where_there_is_no_extinction() {
     // Temperature over [-1, 1]^3, absorbing smoke only in x ∈ [0, 1]

@@ -28,7 +28,7 @@ use super::{Integrator, SampleKey, SampleResult};
 use crate::light::Light;
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, roulette, Domain, Rng};
-use crate::tracking::{self, sample_t_maj};
+use crate::tracking::{self, sample_t_maj, Collision};
 use crate::world::World;
 use crate::Rgb;
 use glam::Vec3;
@@ -120,8 +120,10 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32, sources: Sources) -> Rgb {
 /// One camera path along `ray` (every segment at its time), with at most
 /// `max_bounces` real scattering events. In emissive media the emission
 /// along the camera ray itself comes from
-/// [`tracking::transmittance_emission`], which also gives `transmittance`;
-/// elsewhere `transmittance` is left at 0 (see [`PathIntegrator::li`]).
+/// [`tracking::transmittance_emission`]'s walk, which also gives
+/// `transmittance`, run on the first flight's collisions
+/// ([`tracking::sample_t_maj_emission`]); elsewhere `transmittance` is left
+/// at 0 (see [`PathIntegrator::li`]).
 ///
 /// Every light is sampled at every scattering event, and an environment
 /// map too; a constant environment is found by the rays that escape alone
@@ -159,13 +161,9 @@ pub fn trace_from(
     // by every sample: the path's own collisions would count it only up to
     // where the path first scatters (see `transmittance_emission`). The
     // path's collisions then add emission from its first scattering on.
+    // The walk that gives it shares the first flight's lookups
+    // (`sample_t_maj_emission`).
     let camera_emission = media.is_emissive() && !env_only;
-    if camera_emission {
-        let (tr, e) = tracking::transmittance_emission(media, ray, f32::INFINITY, rng);
-        res.l += e;
-        res.emission += e;
-        res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
-    }
     let mut beta = Rgb::ONE;
     let mut ray_o = ray.o;
     let mut ray_d = ray.d;
@@ -178,7 +176,8 @@ pub fn trace_from(
         let mut new_o = ray_o;
         let mut new_pdf = 0.0;
         let segment = Ray::at_time(ray_o, ray_d, time);
-        let left = sample_t_maj(media, &segment, f32::INFINITY, rng, |c, rng| {
+        let first_flight = depth == 0;
+        let on_collision = |c: &Collision, rng: &mut Rng| {
             let Some(step) = tracking::collide(c, beta, rng) else {
                 terminated = true;
                 return false;
@@ -227,7 +226,16 @@ pub fn trace_from(
                 _ => terminated = true,
             }
             false
-        });
+        };
+        let left = if camera_emission && first_flight {
+            let (left, tr, e) = tracking::sample_t_maj_emission(media, &segment, rng, on_collision);
+            res.l += e;
+            res.emission += e;
+            res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
+            left
+        } else {
+            sample_t_maj(media, &segment, f32::INFINITY, rng, on_collision)
+        };
         // A flight that neither scattered nor left the volumes used up its
         // tentative collisions (tracking::MAX_TENTATIVE): it ends.
         if terminated || (!scattered && !left) {
