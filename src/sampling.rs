@@ -32,8 +32,6 @@ pub fn radical_inverse_2(i: u32) -> f32 {
 pub enum Domain {
     /// Camera paths and camera-ray marches: (seed, pixel, sample).
     Camera,
-    /// The camera ray's own transmittance, for alpha: (seed, pixel, sample).
-    Alpha,
     /// Photon paths: (seed, pass, photon).
     Photon,
     /// Per-pass choices shared by a whole pass: (seed, pass, 0).
@@ -54,7 +52,6 @@ impl Domain {
     fn tag(self) -> u64 {
         match self {
             Domain::Camera => 0x243F_6A88_85A3_08D3,
-            Domain::Alpha => 0x1319_8A2E_0370_7345,
             Domain::Photon => 0xA409_3822_299F_31D1,
             Domain::Pass => 0x082E_FA98_EC4E_6C89,
             Domain::Test => 0x4528_21E6_38D0_1377,

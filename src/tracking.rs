@@ -15,8 +15,9 @@
 //!   RGB extinction, with Russian roulette once the estimate is small.
 //! - [`transmittance_emission`]: the same walk also estimating the
 //!   emission that reaches the ray's origin (for camera rays through fire).
-//! - [`sample_t_maj_emission`]: a camera ray's first flight and that walk
-//!   on the same collisions until the flight scatters.
+//! - [`sample_t_maj_camera`]: a camera ray's first flight and its
+//!   transmittance (and emission) walk on the same collisions until the
+//!   flight scatters.
 //! - [`optical_depth`]: deterministic-step quadrature of ∫σt along a segment
 //!   with a jittered start (for the ray-marching integrator).
 
@@ -56,8 +57,12 @@ pub struct Collision<'a> {
     media: &'a Media,
     /// The optics here and the volume chosen for a scattering event
     /// ([`Media::eval_scatter`]) when the walk that sampled this collision
-    /// has looked them up already ([`sample_t_maj_emission`]).
+    /// has looked them up already ([`sample_t_maj_camera`]).
     looked_up: Option<(MediumPoint, usize)>,
+    /// The uniform number that decides the collision ([`collide`]) when
+    /// the walk has drawn it (to take the control's collisions out of its
+    /// own estimate).
+    u: Option<f32>,
 }
 
 impl Collision<'_> {
@@ -133,6 +138,7 @@ pub fn sample_t_maj(
                 sigma_c,
                 media,
                 looked_up: None,
+                u: None,
             };
             if !f(&c, rng) {
                 reached_end = false;
@@ -185,7 +191,10 @@ fn avg(c: Rgb) -> f32 {
 /// optics, so none of the scattering is lost.
 #[inline]
 pub fn collide(c: &Collision, beta: Rgb, rng: &mut Rng) -> Option<Step> {
-    let u = rng.next_f32();
+    let u = match c.u {
+        Some(u) => u,
+        None => rng.next_f32(),
+    };
     let u_phase = rng.next_f32();
     let mut p_c = 0.0;
     if c.sigma_c > 0.0 {
@@ -292,7 +301,7 @@ fn ratio_walk(media: &Media, ray: &Ray, t_max: f32, rng: &mut Rng, emission: boo
 }
 
 /// The state of a ratio-tracking walk ([`ratio_walk`]), which
-/// [`sample_t_maj_emission`] also runs from wherever its flight ends.
+/// [`sample_t_maj_camera`] also runs from wherever its flight ends.
 struct RatioWalk<'a> {
     media: &'a Media,
     ray: Ray,
@@ -401,42 +410,40 @@ impl<'a> RatioWalk<'a> {
 }
 
 /// [`sample_t_maj`] along a camera ray from its origin, together with
-/// [`transmittance_emission`] over the whole ray, sharing their lookups:
-/// returns what `sample_t_maj` returns, the transmittance and the emission
-/// that reaches the origin.
+/// the camera ray's own walk over the whole ray ([`transmittance`], or
+/// [`transmittance_emission`] where the media glow), sharing their
+/// lookups: returns what `sample_t_maj` returns, the transmittance (the
+/// film's alpha) and the emission that reaches the origin.
 ///
-/// Where the media may emit, the two walks sample tentative collisions at
-/// the same rate (the majorant raised to the emission rate) and look the
-/// same optics up, so until the flight's first real collision one set of
-/// collisions serves both: each adds its emission and ratio to the walk
-/// and is then decided for the flight. Where nothing emits the flight
-/// samples at the majorant σ̄ and the walk keeps its residual control σc:
-/// it takes each of the flight's collisions with probability (σ̄ − σc)/σ̄
-/// (a Poisson process at the residual rate) and attenuates the stretch
-/// walked by exp(−σc·len). From where the flight ends the walk goes on
-/// alone, as [`transmittance_emission`] does. Its collisions are then a
-/// Poisson process of the walk's rates over the whole ray, the flight's
-/// end being a stopping time (the strong Markov property), so both
-/// estimates keep their expectations; they are only no longer independent.
-/// Camera rays in glowing smoke rarely scatter before they leave it, so
-/// most of the walk was the flight's lookups over again: on Blender's
-/// smoke + fire frame the separate walk was 43 % of the path tracer's time
-/// (docs/performance.md, "The camera ray's emission").
-///
-/// Media with a control (which never emit) or none that emit take the two
-/// walks one after the other.
-pub fn sample_t_maj_emission(
+/// Until the flight's first real collision one set of tentative
+/// collisions serves both. Where the media may emit, the two sample at
+/// the same rate (the majorant raised to the emission rate) and need the
+/// same optics: each collision adds its emission and ratio to the walk and
+/// is then decided for the flight. Where nothing emits the flight samples
+/// at the majorant σ̄ and the walk keeps its residual control σc: it takes
+/// each of the flight's collisions with probability (σ̄ − σc)/σ̄ (a
+/// Poisson process at the residual rate), deciding by the number that
+/// decides the flight's collision where the media have a control (whose
+/// collisions, taken without a lookup, are then exactly the ones the walk
+/// leaves out), and attenuates the stretch walked by exp(−σc·len). From
+/// where the flight ends the walk goes on alone. Its collisions and their
+/// numbers are then a marked Poisson process of the walk's rates over the
+/// whole ray, the flight's end being a stopping time (the strong Markov
+/// property), so both estimates keep their expectations; they are only no
+/// longer independent. A camera ray in thin media often leaves them
+/// before it scatters, so a separate walk was mostly the flight's lookups
+/// over again: on Blender's smoke + fire frame it was 43 % of the path
+/// tracer's time, on the bench's thin clouds 13-21 % (docs/performance.md,
+/// "The camera ray's emission").
+pub fn sample_t_maj_camera(
     media: &Media,
     ray: &Ray,
     rng: &mut Rng,
     mut f: impl FnMut(&Collision, &mut Rng) -> bool,
 ) -> (bool, Rgb, Rgb) {
-    if media.control_albedo().is_some() || !media.is_emissive() {
-        let (tr, e) = transmittance_emission(media, ray, f32::INFINITY, rng);
-        return (sample_t_maj(media, ray, f32::INFINITY, rng, f), tr, e);
-    }
     let Ray { o, d, time } = *ray;
-    let mut walk = RatioWalk::new(media, ray, true);
+    let mut walk = RatioWalk::new(media, ray, media.is_emissive());
+    let control = media.control_albedo().is_some();
     let (mut flying, mut walking) = (true, true);
     let mut reached_end = true;
     let mut budget = MAX_TENTATIVE;
@@ -445,15 +452,15 @@ pub fn sample_t_maj_emission(
         if flying {
             let rate = walk.plain_rate(&seg);
             let emissive = walk.emissive(&seg);
-            // Where nothing emits the walk keeps its residual control: of
-            // the flight's collisions it takes each with probability
-            // (σ̄ − σc)/σ̄, a Poisson process at the residual rate, and the
-            // control attenuates the stretch walked analytically.
+            // The walk's control (none where it sums emission), and the
+            // flight's (the same, where the media have one: they never
+            // emit).
             let sigma_c = if emissive {
                 0.0
             } else {
                 seg.min_density.min(seg.max_density)
             };
+            let flight_c = if control { sigma_c } else { 0.0 };
             shared_end = seg.t1;
             let mut t = seg.t0;
             loop {
@@ -475,19 +482,26 @@ pub fn sample_t_maj_emission(
                 }
                 count_tentative();
                 let p = o + d * t;
-                let looked_up = media.eval_scatter(p, time, rng.next_f32());
-                if walking && (sigma_c <= 0.0 || rng.next_f32() * rate >= sigma_c) {
-                    let residual = rate - sigma_c;
-                    walking = walk.collision(&looked_up.0, sigma_c, residual, emissive, rng);
+                let u = rng.next_f32();
+                // A collision of the flight's control needs no lookup, and
+                // is one the walk leaves out (decided as `collide` decides).
+                let of_control = flight_c > 0.0 && u < flight_c / rate;
+                let looked_up = (!of_control).then(|| media.eval_scatter(p, time, rng.next_f32()));
+                if let Some((m, _)) = &looked_up {
+                    let kept = control || sigma_c <= 0.0 || rng.next_f32() * rate >= sigma_c;
+                    if walking && kept {
+                        walking = walk.collision(m, sigma_c, rate - sigma_c, emissive, rng);
+                    }
                 }
                 let c = Collision {
                     t,
                     p,
                     time,
                     sigma_maj: rate,
-                    sigma_c: 0.0,
+                    sigma_c: flight_c,
                     media,
-                    looked_up: Some(looked_up),
+                    looked_up,
+                    u: Some(u),
                 };
                 if !f(&c, rng) {
                     flying = false;

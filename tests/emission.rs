@@ -397,12 +397,12 @@ fn lumpy_block(lo: DVec3, h: f64) -> Grid<f32> {
 }
 
 #[test]
-fn the_first_flight_and_the_emission_walk_share_their_collisions() {
+fn the_first_flight_and_the_camera_walk_share_their_collisions() {
     // Smoke that does not glow (σa 0.25, σs 0.5 per unit density, lumpy,
     // x ∈ [−4, 0]: the walk keeps a residual control there) in front of a
     // glowing, scattering slab (σa 0.5, σs 0.5, emission 1 per unit length,
     // x ∈ [0, 4], where the walk's rate is the emission rate 2 against
-    // σt = 1), seen along +x. `sample_t_maj_emission` runs the camera
+    // σt = 1), seen along +x. `sample_t_maj_camera` runs the camera
     // ray's flight (decided by `collide`) and the emission walk on the same
     // collisions, the walk alone after the flight scatters. Each must keep
     // its own expectation, taken from the field itself by a fine walk
@@ -425,6 +425,22 @@ fn the_first_flight_and_the_emission_walk_share_their_collisions() {
         ),
     ]);
     assert_eq!(media.emission_rate(), 2.0);
+    assert!(media.control_albedo().is_none());
+    camera_walk_keeps_its_expectations(&media);
+    // The smoke alone: no emission, and a control medium, whose collisions
+    // the flight takes without a lookup and the walk leaves out.
+    let smoke = Media::new(vec![volume(
+        lumpy_block(DVec3::new(-4.0, -2.0, -2.0), 0.5),
+        ExtraGrids::default(),
+        raw(0.25, 0.5, 0.0, PhaseFunction::Isotropic),
+    )]);
+    assert!(smoke.control_albedo().is_some());
+    camera_walk_keeps_its_expectations(&smoke);
+}
+
+/// [`the_first_flight_and_the_camera_walk_share_their_collisions`] for
+/// `media`, along +x from (−5, 0.1, −0.2).
+fn camera_walk_keeps_its_expectations(media: &Media) {
     let ray = Ray::new(Vec3::new(-5.0, 0.1, -0.2), Vec3::X);
     // The expectations, from the probability of a first collision in each
     // step of a fine walk (the faces are ramps half a voxel wide).
@@ -447,7 +463,7 @@ fn the_first_flight_and_the_emission_walk_share_their_collisions() {
         let mut rng = Rng::new(Domain::Test, 29, 0, i);
         let mut depth = None;
         let (left, t, e) =
-            vdbphoton::tracking::sample_t_maj_emission(&media, &ray, &mut rng, |c, rng| {
+            vdbphoton::tracking::sample_t_maj_camera(media, &ray, &mut rng, |c, rng| {
                 match vdbphoton::tracking::collide(c, Rgb::ONE, rng) {
                     Some(step) if step.scatter => {
                         depth = Some(c.t);
@@ -734,7 +750,7 @@ fn overlapping_volumes_choose_phase_functions_by_their_scattering() {
 fn random_streams_of_different_uses_never_coincide() {
     for (a, b) in [
         (Domain::Camera, Domain::Photon),
-        (Domain::Camera, Domain::Alpha),
+        (Domain::Camera, Domain::Guide),
     ] {
         for k in 0..100u64 {
             let x: Vec<u32> = {

@@ -27,7 +27,7 @@ use super::nee::{direct_light, EnvLight, Sources};
 use super::{Integrator, SampleKey, SampleResult};
 use crate::light::Light;
 use crate::ray::Ray;
-use crate::sampling::{power_heuristic, roulette, Domain, Rng};
+use crate::sampling::{power_heuristic, roulette, Rng};
 use crate::tracking::{self, sample_t_maj, Collision};
 use crate::world::World;
 use crate::Rgb;
@@ -52,17 +52,10 @@ impl Integrator for PathIntegrator {
         "path"
     }
 
-    fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, key: SampleKey) -> SampleResult {
-        let mut r = trace(world, self.max_bounces, ray, rng);
-        // Alpha: ratio-tracked transmittance of the camera ray, from a
-        // stream of its own so it does not perturb the path (in emissive
-        // media `trace` estimated it with the camera ray's emission).
-        if !world.media.is_emissive() {
-            let mut rng_t = key.rng(Domain::Alpha);
-            let tr = tracking::transmittance(&world.media, ray, f32::INFINITY, &mut rng_t);
-            r.transmittance = (tr.x + tr.y + tr.z) / 3.0;
-        }
-        r
+    fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, _key: SampleKey) -> SampleResult {
+        // Alpha, the camera ray's ratio-tracked transmittance, comes from
+        // `trace`, which walks it on its first flight's collisions.
+        trace(world, self.max_bounces, ray, rng)
     }
 
     fn attributes(&self) -> Vec<(String, String)> {
@@ -118,12 +111,13 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32, sources: Sources) -> Rgb {
 }
 
 /// One camera path along `ray` (every segment at its time), with at most
-/// `max_bounces` real scattering events. In emissive media the emission
-/// along the camera ray itself comes from
-/// [`tracking::transmittance_emission`]'s walk, which also gives
-/// `transmittance`, run on the first flight's collisions
-/// ([`tracking::sample_t_maj_emission`]); elsewhere `transmittance` is left
-/// at 0 (see [`PathIntegrator::li`]).
+/// `max_bounces` real scattering events. `transmittance` (the film's
+/// alpha) and, in emissive media, the emission along the camera ray itself
+/// come from a ratio-tracking walk along the whole ray
+/// ([`tracking::transmittance_emission`]'s), run on the first flight's
+/// collisions ([`tracking::sample_t_maj_camera`]); with the environment
+/// alone (no `lights` in `sources`) there is no such walk and
+/// `transmittance` is left at 0.
 ///
 /// Every light is sampled at every scattering event, and an environment
 /// map too; a constant environment is found by the rays that escape alone
@@ -161,8 +155,8 @@ pub fn trace_from(
     // by every sample: the path's own collisions would count it only up to
     // where the path first scatters (see `transmittance_emission`). The
     // path's collisions then add emission from its first scattering on.
-    // The walk that gives it shares the first flight's lookups
-    // (`sample_t_maj_emission`).
+    // The walk that gives it, and alpha, shares the first flight's lookups
+    // (`sample_t_maj_camera`).
     let camera_emission = media.is_emissive() && !env_only;
     let mut beta = Rgb::ONE;
     let mut ray_o = ray.o;
@@ -227,8 +221,8 @@ pub fn trace_from(
             }
             false
         };
-        let left = if camera_emission && first_flight {
-            let (left, tr, e) = tracking::sample_t_maj_emission(media, &segment, rng, on_collision);
+        let left = if !env_only && first_flight {
+            let (left, tr, e) = tracking::sample_t_maj_camera(media, &segment, rng, on_collision);
             res.l += e;
             res.emission += e;
             res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
