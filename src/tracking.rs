@@ -307,7 +307,6 @@ struct RatioWalk<'a> {
     ray: Ray,
     /// Whether emissive segments sum the emission.
     emission: bool,
-    emission_rate: f32,
     /// The transmittance estimate so far.
     tr: Rgb,
     /// The emission that reaches the ray's origin so far.
@@ -321,7 +320,6 @@ impl<'a> RatioWalk<'a> {
             media,
             ray: *ray,
             emission,
-            emission_rate: media.emission_rate(),
             tr: Rgb::ONE,
             emitted: Rgb::ZERO,
             budget: MAX_TENTATIVE,
@@ -339,9 +337,22 @@ impl<'a> RatioWalk<'a> {
     #[inline(always)]
     fn plain_rate(&self, seg: &Segment) -> f32 {
         if self.emissive(seg) {
-            seg.max_density.max(self.emission_rate)
+            seg.max_density.max(self.media.emission_rate())
         } else {
             seg.max_density
+        }
+    }
+
+    /// The control σc the walk takes analytically in `seg`: the minorant,
+    /// valid for transmittance whatever the albedo or emission (only
+    /// extinction matters here); none where it sums emission, which needs
+    /// every collision's optics.
+    #[inline(always)]
+    fn control(&self, seg: &Segment) -> f32 {
+        if self.emissive(seg) {
+            0.0
+        } else {
+            seg.min_density.min(seg.max_density)
         }
     }
 
@@ -377,14 +388,8 @@ impl<'a> RatioWalk<'a> {
     fn segment(&mut self, seg: &Segment, t0: f32, rng: &mut Rng) -> bool {
         let Ray { o, d, time } = self.ray;
         let emissive = self.emissive(seg);
-        let (sigma_c, rate) = if emissive {
-            (0.0, self.plain_rate(seg))
-        } else {
-            let sigma_c = seg.min_density.min(seg.max_density);
-            (sigma_c, seg.max_density - sigma_c)
-        };
-        // The minorant is a valid control for transmittance whatever the
-        // albedo or emission: only extinction matters here.
+        let sigma_c = self.control(seg);
+        let rate = self.plain_rate(seg) - sigma_c;
         if sigma_c > 0.0 {
             self.tr *= (-sigma_c * (seg.t1 - t0)).exp();
             if !roulette(&mut self.tr, TRANSMITTANCE_RR, rng) {
@@ -452,14 +457,9 @@ pub fn sample_t_maj_camera(
         if flying {
             let rate = walk.plain_rate(&seg);
             let emissive = walk.emissive(&seg);
-            // The walk's control (none where it sums emission), and the
-            // flight's (the same, where the media have one: they never
-            // emit).
-            let sigma_c = if emissive {
-                0.0
-            } else {
-                seg.min_density.min(seg.max_density)
-            };
+            // The walk's control, and the flight's (the same, where the
+            // media have one: they never emit).
+            let sigma_c = walk.control(&seg);
             let flight_c = if control { sigma_c } else { 0.0 };
             shared_end = seg.t1;
             let mut t = seg.t0;
