@@ -110,6 +110,7 @@ fn main() {
                 r,
                 Vec::new(),
                 vdbphoton::photon::beam::RATIO_MAX,
+                1.0,
             )
             .unwrap();
             let t_bvh = secs(t);

@@ -204,6 +204,29 @@ impl PhaseFunction {
         self.sample(-d, u).map(|s| (s.wi, s.p))
     }
 
+    /// This phase function blurred over directions by a Henyey–Greenstein
+    /// kernel of mean cosine `s` (1: unchanged, 0: isotropic): the
+    /// convolution ∫ p(wo, w) K_s(w, wi) dw. By the Funk–Hecke theorem a
+    /// zonal convolution multiplies the Legendre coefficients, and HG(g)'s
+    /// are g^l (Henyey & Greenstein 1941), so HG(g) blurred by HG(s) is
+    /// exactly HG(g·s), lobe by lobe for a mixture. Schlick's function has
+    /// no such closed form and is returned unblurred.
+    ///
+    /// The photon estimate uses it as an angular kernel over the photons'
+    /// directions (`crate::integrator::photon::angular_kernel`).
+    pub fn blurred(&self, s: f32) -> PhaseFunction {
+        match *self {
+            PhaseFunction::HenyeyGreenstein { g } => PhaseFunction::HenyeyGreenstein { g: g * s },
+            PhaseFunction::HgMix(mut m) => {
+                for g in &mut m.g[..m.n] {
+                    *g *= s;
+                }
+                PhaseFunction::HgMix(m)
+            }
+            other => other,
+        }
+    }
+
     /// Mean cosine of the scattering angle (old vs new direction of travel).
     pub fn mean_cosine(&self) -> f32 {
         match *self {

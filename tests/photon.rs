@@ -882,6 +882,21 @@ fn tuning_follows_the_scattering_order() {
         let get = |k: &str| a.iter().find(|(n, _)| n == k).unwrap().1.clone();
         (get("vdbphoton/k"), get("vdbphoton/alpha"))
     };
+    // Only dense media blur the photons' directions (their error is the
+    // variance; a thin medium's is the bias).
+    let angular = |w: &World| {
+        let mut integ = PhotonIntegrator::new(w, settings(4000), 1024, 3).unwrap();
+        integ.begin_pass(w, 0);
+        let a = integ.attributes();
+        a.iter()
+            .find(|(n, _)| n == "vdbphoton/angular_kernel")
+            .unwrap()
+            .1
+            .clone()
+    };
+    assert_eq!(angular(&dense), Tuning::DENSE.angular.to_string());
+    assert_eq!(angular(&thin), "1");
+    const { assert!(Tuning::DENSE.angular < 1.0) };
     let d = Tuning::DENSE;
     let t = Tuning::THIN;
     assert_eq!(

@@ -138,6 +138,9 @@ pub struct BeamMap {
     flat: Vec<Flat>,
     /// The cap on the σs ratio in this pass.
     ratio_max: f32,
+    /// The mean cosine of the angular kernel that blurs the photons'
+    /// directions (1: none; [`crate::phase::PhaseFunction::blurred`]).
+    angular: f32,
     bvh: CwBvh,
 }
 
@@ -145,12 +148,15 @@ impl BeamMap {
     /// Builds the BVH over the spheres (`radius[i]` around photon `i`,
     /// flattened as `flat[i]` says when `flat` is not empty: the bounds
     /// stay the spheres'); `None` when there are no photons. `ratio_max`
-    /// caps the σs ratio a photon is weighted by (see [`RATIO_MAX`]).
+    /// caps the σs ratio a photon is weighted by (see [`RATIO_MAX`]);
+    /// `angular` is the mean cosine of the angular kernel over the photons'
+    /// directions (1: none).
     pub fn new(
         photons: Vec<Photon>,
         radius: Vec<f32>,
         flat: Vec<Flat>,
         ratio_max: f32,
+        angular: f32,
     ) -> Option<Self> {
         debug_assert!(flat.is_empty() || flat.len() == photons.len());
         if photons.is_empty() {
@@ -180,6 +186,7 @@ impl BeamMap {
             radius,
             flat,
             ratio_max,
+            angular,
             bvh,
         })
     }
@@ -204,7 +211,8 @@ impl BeamMap {
     /// The in-scattered light the camera ray `o + t d` (`d` unit) gathers
     /// over `[0, t_max)`, each photon weighted by `along(t)` at its closest
     /// point on the ray: (the transmittance from the camera there, σs there
-    /// as the mean over channels). Returns (from light photons, from media
+    /// as the mean over channels), and by the phase function blurred by the
+    /// map's angular kernel. Returns (from light photons, from media
     /// photons).
     pub fn gather(
         &self,
@@ -236,7 +244,10 @@ impl BeamMap {
             }
             let c = p.power
                 * (k * (sigma_s / p.sigma_s).min(self.ratio_max)
-                    * media.phase_of(p.volume()).eval(wo, p.wi))
+                    * media
+                        .phase_of(p.volume())
+                        .blurred(self.angular)
+                        .eval(wo, p.wi))
                 * tr;
             if p.from_media() {
                 emitted += c;
@@ -291,6 +302,52 @@ mod tests {
                 (sum - 1.0).abs() < 2e-3,
                 "axis {axis}, squash {squash}, ray {d}: integrates to {sum}"
             );
+        }
+    }
+
+    /// A photon's light reaches the camera ray weighted by the phase
+    /// function blurred by the map's angular kernel, HG(g·s) for an HG
+    /// medium (the kernel the photon integrator shrinks over passes), and
+    /// unblurred with s = 1: a gather that ignored the kernel, or blurred
+    /// twice, fails.
+    #[test]
+    fn the_gather_weighs_a_photon_by_the_blurred_phase_function() {
+        use crate::medium::{ExtraGrids, Material, Volume};
+        use crate::phase::{henyey_greenstein, PhaseFunction};
+        let volume = Volume::new(
+            "cloud",
+            crate::generate::cloud(8, 1).unwrap(),
+            ExtraGrids::default(),
+            Material::Raw {
+                sigma_a: Rgb::splat(0.1),
+                sigma_s: Rgb::splat(2.0),
+                emission: Rgb::ZERO,
+                phase: PhaseFunction::hg(0.8),
+            },
+            glam::DAffine3::IDENTITY,
+        )
+        .unwrap();
+        let media = Media::new(vec![volume]);
+        let wi = Vec3::new(0.9, 0.2, -0.3).normalize();
+        let photon = Photon {
+            p: Vec3::new(0.1, 0.0, 0.0),
+            wi,
+            power: Rgb::new(1.0, 2.0, 3.0),
+            sigma_s: 2.0,
+            tag: 0,
+        };
+        let (o, d, r) = (Vec3::new(-1.0, 0.03, 0.02), Vec3::X, 0.1);
+        let (_, k) = chord_kernel(photon.p - o, d, r, Flat::SPHERE).unwrap();
+        for s in [1.0, 0.75, 0.5] {
+            let map = BeamMap::new(vec![photon], vec![r], Vec::new(), RATIO_MAX, s).unwrap();
+            // σs where gathered equals σs where stored: a ratio of 1.
+            let (light, emitted) = map.gather(&media, o, d, 10.0, |_| (Rgb::ONE, 2.0));
+            let want = photon.power * (k * henyey_greenstein((-d).dot(wi), 0.8 * s));
+            assert!(
+                (light - want).abs().max_element() < 1e-5 * want.max_element(),
+                "s = {s}: {light} against {want}"
+            );
+            assert_eq!(emitted, Rgb::ZERO);
         }
     }
 }
