@@ -880,32 +880,24 @@ fn tuning_follows_the_scattering_order() {
         integ.begin_pass(w, 0);
         let a = integ.attributes();
         let get = |k: &str| a.iter().find(|(n, _)| n == k).unwrap().1.clone();
-        (get("vdbphoton/k"), get("vdbphoton/alpha"))
+        (
+            get("vdbphoton/k"),
+            get("vdbphoton/alpha"),
+            get("vdbphoton/angular_kernel"),
+        )
     };
     // Only dense media blur the photons' directions (their error is the
     // variance; a thin medium's is the bias).
-    let angular = |w: &World| {
-        let mut integ = PhotonIntegrator::new(w, settings(4000), 1024, 3).unwrap();
-        integ.begin_pass(w, 0);
-        let a = integ.attributes();
-        a.iter()
-            .find(|(n, _)| n == "vdbphoton/angular_kernel")
-            .unwrap()
-            .1
-            .clone()
-    };
-    assert_eq!(angular(&dense), Tuning::DENSE.angular.to_string());
-    assert_eq!(angular(&thin), "1");
     const { assert!(Tuning::DENSE.angular < 1.0) };
     let d = Tuning::DENSE;
     let t = Tuning::THIN;
     assert_eq!(
         attribute(&dense, settings(4000)),
-        (d.k.to_string(), d.alpha.to_string())
+        (d.k.to_string(), d.alpha.to_string(), d.angular.to_string())
     );
     assert_eq!(
         attribute(&thin, settings(4000)),
-        (t.k.to_string(), t.alpha.to_string())
+        (t.k.to_string(), t.alpha.to_string(), "1".to_string())
     );
     let given = PhotonSettings {
         k: Some(40),
@@ -913,7 +905,7 @@ fn tuning_follows_the_scattering_order() {
     };
     assert_eq!(
         attribute(&dense, given),
-        ("40".to_string(), d.alpha.to_string())
+        ("40".to_string(), d.alpha.to_string(), d.angular.to_string())
     );
 }
 
