@@ -28,7 +28,43 @@ pub struct SampleResult {
     /// The denoising albedo along the camera ray, for the samples that
     /// carry the denoiser's guide (`crate::integrator::guide`).
     pub albedo: Option<Rgb>,
+    /// What a camera ray that met a shadow catcher gives the Shadow
+    /// Catcher pass (`crate::integrator::catcher`), weighted by the
+    /// transmittance up to the catcher.
+    pub catcher: Option<CatcherSample>,
 }
+
+/// The light a shadow catcher receives with everything in the scene
+/// (`shadowed`) and with only the lights and the world (`unshadowed`):
+/// their ratio, summed over a pixel's samples, is Cycles' Shadow Catcher
+/// pass (`film_calculate_shadow_catcher`, `kernel/film/read.h`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CatcherSample {
+    pub shadowed: Rgb,
+    pub unshadowed: Rgb,
+}
+
+impl CatcherSample {
+    /// Both estimates times `w`.
+    pub fn scaled(self, w: f32) -> Self {
+        Self {
+            shadowed: self.shadowed * w,
+            unshadowed: self.unshadowed * w,
+        }
+    }
+}
+
+/// Sums of one pixel's shadow-catcher estimates, and how many of its
+/// samples saw a catcher.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct CatcherSums {
+    shadowed: Rgb,
+    unshadowed: Rgb,
+    hits: u32,
+}
+
+/// The name of the Shadow Catcher pass's layer in the EXR.
+pub const SHADOW_CATCHER_LAYER: &str = "shadow_catcher";
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)` in a `width` x `height`
 /// image.
@@ -185,6 +221,8 @@ pub struct Film {
     /// alternate passes, photon maps included); the denoiser measures its
     /// own error with them (`crate::denoise::blend`).
     half: Option<Vec<Rgb>>,
+    /// Shadow-catcher sums, when the scene has a catcher.
+    catcher: Option<Vec<CatcherSums>>,
     /// Samples per pixel so far.
     samples: Vec<u32>,
 }
@@ -193,6 +231,9 @@ impl Film {
     /// Bytes per pixel the denoising albedo and half sums add at most
     /// ([`Self::with_guides`], [`Self::with_half`]).
     pub const DENOISE_BYTES: usize = std::mem::size_of::<GuideSums>() + std::mem::size_of::<Rgb>();
+    /// Bytes per pixel the shadow catcher's sums add
+    /// ([`Self::with_catcher`]), and its layer in the image.
+    pub const CATCHER_BYTES: usize = std::mem::size_of::<CatcherSums>() + 2 * 4 * 3;
 
     /// An empty film over `region` of a `width` x `height` image, with AOV
     /// sums when `aovs`.
@@ -207,8 +248,24 @@ impl Film {
             aovs: aovs.then(|| vec![AovSums::default(); n]),
             guides: None,
             half: None,
+            catcher: None,
             samples: vec![0; n],
         }
+    }
+
+    /// The film also keeps the shadow catcher's sums, written as the layer
+    /// [`SHADOW_CATCHER_LAYER`] (Cycles' Shadow Catcher pass).
+    pub fn with_catcher(self) -> Self {
+        let n = self.samples.len();
+        Self {
+            catcher: Some(vec![CatcherSums::default(); n]),
+            ..self
+        }
+    }
+
+    /// Whether the film keeps the shadow catcher's sums.
+    pub fn has_catcher(&self) -> bool {
+        self.catcher.is_some()
     }
 
     /// The film also keeps the denoising albedo of the samples that carry
@@ -289,6 +346,13 @@ impl Film {
                 a[i].samples += 1;
             }
         }
+        if let (Some(a), Some(c)) = (&mut self.catcher, s.catcher) {
+            a[i].hits += 1;
+            if c.shadowed.is_finite() && c.unshadowed.is_finite() {
+                a[i].shadowed += c.shadowed;
+                a[i].unshadowed += c.unshadowed;
+            }
+        }
     }
 
     /// Adds every sum and count of `other`, a film of the same region.
@@ -319,6 +383,13 @@ impl Film {
                 *x += *y;
             }
         }
+        if let (Some(a), Some(b)) = (&mut self.catcher, &other.catcher) {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.shadowed += y.shadowed;
+                x.unshadowed += y.unshadowed;
+                x.hits += y.hits;
+            }
+        }
         Ok(())
     }
 
@@ -334,6 +405,7 @@ impl Film {
             + self.aovs.as_ref().map_or(0, |_| n * 9 * 4)
             + self.guides.as_ref().map_or(0, |_| n * 4 * 4)
             + self.half.as_ref().map_or(0, |_| n * 3 * 4)
+            + self.catcher.as_ref().map_or(0, |_| n * 7 * 4)
     }
 
     /// Writes every sum and count, little-endian, bit for bit (a resumed
@@ -387,6 +459,13 @@ impl Film {
         if let Some(a) = &self.half {
             put::<_, 12>(w, a, |c, b| f32s(b, *c))?;
         }
+        if let Some(a) = &self.catcher {
+            put::<_, 28>(w, a, |c, b| {
+                f32s(b, c.shadowed);
+                f32s(b, c.unshadowed);
+                b.extend_from_slice(&c.hits.to_le_bytes());
+            })?;
+        }
         Ok(())
     }
 
@@ -439,6 +518,13 @@ impl Film {
         if let Some(a) = &mut self.half {
             get::<_, 12>(r, a, |s| rgb_at(s, 0))?;
         }
+        if let Some(a) = &mut self.catcher {
+            get::<_, 28>(r, a, |s| CatcherSums {
+                shadowed: rgb_at(s, 0),
+                unshadowed: rgb_at(s, 3),
+                hits: u32::from_le_bytes(s[24..28].try_into().unwrap()),
+            })?;
+        }
         Ok(())
     }
 
@@ -480,10 +566,25 @@ impl Film {
             .collect()
     }
 
+    /// The Shadow Catcher pass of pixel `i` of the region (Cycles'
+    /// `film_calculate_shadow_catcher`): per channel the shadowed over the
+    /// unshadowed sum (1 where that is 0), mixed with 1 by the share of
+    /// samples that did not see a catcher.
+    fn catcher_pass(&self, i: usize, c: &CatcherSums) -> Rgb {
+        let seen = c.hits as f32 * self.inv(i) as f32;
+        let ratio = Rgb::select(
+            c.unshadowed.cmpgt(Rgb::ZERO),
+            c.shadowed / c.unshadowed.max(Rgb::splat(f32::MIN_POSITIVE)),
+            Rgb::ONE,
+        );
+        Rgb::splat(1.0 - seen) + ratio * seen
+    }
+
     /// The means as an image of the region, placed in the whole image (its
     /// data window): RGBA (alpha = 1 − the transmittance along the camera
     /// ray) and, when kept, the AOV layers `direct`, `indirect`, `emission`
-    /// and `transmittance`, and the denoiser's `albedo` and `half`.
+    /// and `transmittance`, the denoiser's `albedo` and `half`, and the
+    /// Shadow Catcher pass ([`SHADOW_CATCHER_LAYER`]).
     pub fn to_image(&self) -> Result<Image, ImageError> {
         let (w, h) = (self.region.width() as usize, self.region.height() as usize);
         let tr = self.mean_transmittance();
@@ -526,6 +627,12 @@ impl Film {
             for (i, s) in h.iter().enumerate() {
                 let n = self.samples[i] / 2;
                 layer.set(i % w, i / w, &(*s / n as f32).to_array());
+            }
+        }
+        if let Some(a) = &self.catcher {
+            let layer = image.add_rgb_layer(SHADOW_CATCHER_LAYER)?;
+            for (i, c) in a.iter().enumerate() {
+                layer.set(i % w, i / w, &self.catcher_pass(i, c).to_array());
             }
         }
         image.set_window(

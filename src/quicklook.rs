@@ -127,6 +127,7 @@ pub fn scene_for(file: &Path) -> Result<(SceneDesc, Vec<String>)> {
             velocity_scale: Vec3::ONE,
             velocity_unit: Default::default(),
         }],
+        meshes: Vec::new(),
         warnings: Vec::new(),
     };
     Ok((desc, notes))

@@ -200,6 +200,16 @@ pub fn sample_uniform_disk_concentric(u: Vec2) -> Vec2 {
     Vec2::new(theta.cos(), theta.sin()) * r
 }
 
+/// Cosine-weighted direction on the hemisphere around +Z (Malley's
+/// method: the concentric disk lifted onto the hemisphere; pbrt-v4
+/// `SampleCosineHemisphere`): density cos θ / π.
+#[inline]
+pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = sample_uniform_disk_concentric(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
 /// Veach's power heuristic with β = 2.
 #[inline]
 pub fn power_heuristic(nf: u32, f_pdf: f32, ng: u32, g_pdf: f32) -> f32 {

@@ -414,8 +414,9 @@ impl<'a> RatioWalk<'a> {
     }
 }
 
-/// [`sample_t_maj`] along a camera ray from its origin, together with
-/// the camera ray's own walk over the whole ray ([`transmittance`], or
+/// [`sample_t_maj`] along a camera ray from its origin over `[0, t_max)`
+/// (up to the surface it meets), together with the camera ray's own walk
+/// over that whole stretch ([`transmittance`], or
 /// [`transmittance_emission`] where the media glow), sharing their
 /// lookups: returns what `sample_t_maj` returns, the transmittance (the
 /// film's alpha) and the emission that reaches the origin.
@@ -443,6 +444,7 @@ impl<'a> RatioWalk<'a> {
 pub fn sample_t_maj_camera(
     media: &Media,
     ray: &Ray,
+    t_max: f32,
     rng: &mut Rng,
     mut f: impl FnMut(&Collision, &mut Rng) -> bool,
 ) -> (bool, Rgb, Rgb) {
@@ -452,7 +454,7 @@ pub fn sample_t_maj_camera(
     let (mut flying, mut walking) = (true, true);
     let mut reached_end = true;
     let mut budget = MAX_TENTATIVE;
-    media.for_each_segment_at(o, d, 0.0, f32::INFINITY, time, |seg| {
+    media.for_each_segment_at(o, d, 0.0, t_max, time, |seg| {
         let mut shared_end = seg.t0;
         if flying {
             let rate = walk.plain_rate(&seg);

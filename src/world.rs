@@ -7,9 +7,10 @@ use crate::grid::Grid;
 use crate::light::{EnvMap, Environment, Light};
 use crate::medium::{ExtraGrids, Material, Media, VelocityField, VelocityGrids, Volume};
 use crate::scene::{
-    CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MotionBlurDesc,
-    SceneDesc, VelocityUnit, VolumeBounds, VolumeDesc,
+    CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MeshDesc,
+    MotionBlurDesc, SceneDesc, VelocityUnit, VolumeBounds, VolumeDesc,
 };
+use crate::shape::{Object, ObjectFlags, RayKind, Shapes, Visibility};
 use crate::vdb::VdbFile;
 use glam::{DAffine3, DVec3, Vec2, Vec3};
 use std::time::Instant;
@@ -19,6 +20,11 @@ pub struct World {
     pub lights: Vec<Light>,
     pub environment: Environment,
     pub media: Media,
+    /// The meshes' surfaces (empty without `[[mesh]]`).
+    pub shapes: Shapes,
+    /// Blender's Film > Transparent: the world seen directly is left out
+    /// of the colour.
+    pub film_transparent: bool,
     /// Messages worth showing the user (e.g. negative densities clamped).
     pub warnings: Vec<String>,
     /// Seconds spent reading volumes.
@@ -462,6 +468,93 @@ fn check_motion(
     ))
 }
 
+/// The flags of a `[[mesh]]`.
+fn mesh_flags(m: &MeshDesc) -> ObjectFlags {
+    let v = &m.visibility;
+    ObjectFlags {
+        holdout: m.holdout,
+        shadow_catcher: m.shadow_catcher,
+        visibility: Visibility::NONE
+            .with(RayKind::CAMERA, v.camera)
+            .with(RayKind::SHADOW, v.shadow)
+            .with(RayKind::DIFFUSE, v.diffuse)
+            .with(RayKind::GLOSSY, v.glossy)
+            .with(RayKind::TRANSMISSION, v.transmission)
+            .with(RayKind::VOLUME_SCATTER, v.volume_scatter),
+    }
+}
+
+/// Reads a `[[mesh]]` and places its triangles in world space; refuses a
+/// transform that puts a vertex beyond single-precision world space.
+fn load_mesh(m: &MeshDesc) -> Result<(Object, Vec<[Vec3; 3]>)> {
+    let mesh = crate::mesh::read(&m.file)?;
+    let t = m.transform;
+    let world: Vec<Vec3> = mesh
+        .positions
+        .iter()
+        .map(|p| t.transform_point3(p.as_dvec3()).as_vec3())
+        .collect();
+    let limit = f32::MAX / 2.0;
+    if let Some(p) = world
+        .iter()
+        .find(|p| !(p.is_finite() && p.abs().max_element() < limit))
+    {
+        return Err(Error::file(
+            &m.file,
+            format!(
+                "its transform places a vertex beyond single-precision world space ({:.3e}, {:.3e}, {:.3e}); check the mesh's transform",
+                p.x, p.y, p.z
+            ),
+        ));
+    }
+    let triangles: Vec<[Vec3; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| world[i as usize]))
+        .collect();
+    let name = m.name.clone().unwrap_or_else(|| {
+        m.file
+            .file_stem()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned())
+    });
+    Ok((
+        Object {
+            name,
+            flags: mesh_flags(m),
+            triangles: triangles.len(),
+        },
+        triangles,
+    ))
+}
+
+/// The surfaces of a scene's `[[mesh]]`es, and what the render should say
+/// about them.
+pub fn load_shapes(meshes: &[MeshDesc], warnings: &mut Vec<String>) -> Result<Shapes> {
+    let mut parts = Vec::with_capacity(meshes.len());
+    for (i, m) in meshes.iter().enumerate() {
+        parts.push(
+            load_mesh(m).map_err(|e| e.context(format!("[[mesh]] {} {}", i + 1, m.label())))?,
+        );
+    }
+    // Surfaces are not shaded yet: what the camera sees of an ordinary
+    // mesh is a hole, as a holdout's.
+    let shown: Vec<String> = meshes
+        .iter()
+        .filter(|m| !m.holdout && !m.shadow_catcher && m.visibility.camera)
+        .map(|m| m.label())
+        .collect();
+    if !shown.is_empty() {
+        warnings.push(format!(
+            "surfaces are not shaded yet: {} {} as a holdout where the camera sees {} (colour and alpha 0, as holdout = true); set visibility = {{ camera = false }} to keep only {} shadow",
+            shown.join(", "),
+            if shown.len() == 1 { "renders" } else { "render" },
+            if shown.len() == 1 { "it" } else { "them" },
+            if shown.len() == 1 { "its" } else { "their" },
+        ));
+    }
+    Ok(Shapes::new(parts))
+}
+
 /// The camera a scene describes; `boxes` are the volumes' world boxes
 /// for automatic framing.
 pub fn make_camera(c: &CameraDesc, width: u32, height: u32, boxes: &[WorldBox]) -> Result<Camera> {
@@ -636,6 +729,7 @@ impl World {
                 )))
             }
         };
+        let shapes = load_shapes(&desc.meshes, &mut warnings)?;
         let r = &desc.render;
         let c = &desc.camera;
         let media = Media::new(volumes);
@@ -656,6 +750,8 @@ impl World {
             lights,
             environment,
             media,
+            shapes,
+            film_transparent: r.film_transparent,
             warnings,
             load_seconds: t0.elapsed().as_secs_f64(),
         })

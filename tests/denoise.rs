@@ -311,6 +311,8 @@ fn box_world(sigma_s: Rgb, sigma_a: f32, sky: f32, eye: Vec3) -> World {
         environment: Environment::Constant(Rgb::splat(sky)),
         media: Media::new(vec![v]),
         warnings: vec![],
+        shapes: vdbphoton::shape::Shapes::empty(),
+        film_transparent: false,
         load_seconds: 0.0,
     }
 }

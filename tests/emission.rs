@@ -40,6 +40,8 @@ fn world(media: Media, lights: Vec<Light>) -> World {
         environment: Environment::Constant(Rgb::ZERO),
         media,
         warnings: vec![],
+        shapes: vdbphoton::shape::Shapes::empty(),
+        film_transparent: false,
         load_seconds: 0.0,
     }
 }
@@ -462,17 +464,20 @@ fn camera_walk_keeps_its_expectations(media: &Media) {
     for i in 0..n {
         let mut rng = Rng::new(Domain::Test, 29, 0, i);
         let mut depth = None;
-        let (left, t, e) =
-            vdbphoton::tracking::sample_t_maj_camera(media, &ray, &mut rng, |c, rng| {
-                match vdbphoton::tracking::collide(c, Rgb::ONE, rng) {
-                    Some(step) if step.scatter => {
-                        depth = Some(c.t);
-                        false
-                    }
-                    Some(_) => true,
-                    None => false,
+        let (left, t, e) = vdbphoton::tracking::sample_t_maj_camera(
+            media,
+            &ray,
+            f32::INFINITY,
+            &mut rng,
+            |c, rng| match vdbphoton::tracking::collide(c, Rgb::ONE, rng) {
+                Some(step) if step.scatter => {
+                    depth = Some(c.t);
+                    false
                 }
-            });
+                Some(_) => true,
+                None => false,
+            },
+        );
         let (t, e) = (t.x as f64, e.x as f64);
         sums[0] += t;
         sums[1] += t * t;

@@ -43,6 +43,8 @@ fn box_world(lights: Vec<Light>, env: Environment, g: f32) -> World {
         environment: env,
         media: Media::new(vec![v]),
         warnings: vec![],
+        shapes: vdbphoton::shape::Shapes::empty(),
+        film_transparent: false,
         load_seconds: 0.0,
     }
 }
@@ -301,6 +303,8 @@ fn furnace_under_a_uniform_map() {
         environment: Environment::Map(Box::new(map)),
         media: Media::new(vec![v]),
         warnings: vec![],
+        shapes: vdbphoton::shape::Shapes::empty(),
+        film_transparent: false,
         load_seconds: 0.0,
     };
     let settings = Settings {

@@ -100,6 +100,8 @@ fn world(volume: Volume, lights: Vec<Light>, shutter: Option<f32>) -> World {
         environment: Environment::Constant(Rgb::ZERO),
         media: Media::new(vec![volume]),
         warnings: vec![],
+        shapes: vdbphoton::shape::Shapes::empty(),
+        film_transparent: false,
         load_seconds: 0.0,
     }
 }

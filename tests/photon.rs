@@ -41,6 +41,8 @@ fn world(volumes: Vec<Volume>, lights: Vec<Light>, env: Rgb) -> World {
         environment: Environment::Constant(env),
         media: Media::new(volumes),
         warnings: vec![],
+        shapes: vdbphoton::shape::Shapes::empty(),
+        film_transparent: false,
         load_seconds: 0.0,
     }
 }

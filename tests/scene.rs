@@ -137,8 +137,10 @@ fn defaults_when_keys_are_absent() {
             denoise: false,
             denoise_quality: vdbphoton::scene::DenoiseQuality::High,
             resume: false,
+            film_transparent: false,
         }
     );
+    assert!(scene.meshes.is_empty());
     assert_eq!(
         scene.camera.pose,
         CameraPose::LookAt {
@@ -1080,4 +1082,42 @@ fn malformed_file_on_disk() {
         format!("{}:2: file is not valid UTF-8 text", path.display())
     );
     assert_eq!(SceneDesc::load(&path).unwrap_err().line(), Some(2));
+}
+
+/// `[[mesh]]`: the file resolved against the scene, a transform, Blender's
+/// holdout, shadow catcher and ray visibility (every key optional, true by
+/// default), and `[render] film_transparent`.
+#[test]
+fn meshes_and_a_transparent_film() {
+    let scene = ok(&format!(
+        "[render]\nfilm_transparent = true\n{VOL}[[mesh]]\nfile = \"m/ground.ply\"\nname = \"Ground\"\nshadow_catcher = true\ntransform = {{ translate = [0, 0, -1] }}\n[[mesh]]\nfile = \"ball.obj\"\nholdout = true\nvisibility = {{ shadow = false, volume_scatter = false }}\n"
+    ));
+    assert!(scene.render.film_transparent);
+    let [g, b] = &scene.meshes[..] else {
+        panic!("two meshes")
+    };
+    assert_eq!(g.file, PathBuf::from("/s/m/ground.ply"));
+    assert_eq!(g.name.as_deref(), Some("Ground"));
+    assert!(g.shadow_catcher && !g.holdout);
+    assert_eq!(g.transform.translation, glam::DVec3::new(0.0, 0.0, -1.0));
+    assert_eq!(g.visibility, vdbphoton::scene::RayVisibility::default());
+    assert!(b.holdout && !b.shadow_catcher && b.name.is_none());
+    let v = b.visibility;
+    assert!(v.camera && v.diffuse && v.glossy && v.transmission);
+    assert!(!v.shadow && !v.volume_scatter);
+}
+
+#[test]
+fn error_mesh_keys() {
+    assert_eq!(
+        toml_err(&format!("{VOL}[[mesh]]\nfile = \"a.ply\"\nvisibility = {{ reflection = false }}\n")),
+        "scene.toml:5: key 'reflection' in [mesh.visibility]: unknown field `reflection`, expected one of `camera`, `shadow`, `diffuse`, `glossy`, `transmission`, `volume_scatter`"
+    );
+    assert_eq!(
+        toml_err(&format!(
+            "{VOL}[[mesh]]\nfile = \"a.ply\"\ntransform = {{ scale = [1, 0, 1] }}\n"
+        )),
+        "scene.toml:5: key 'transform' in [mesh]: is singular (a zero scale or degenerate matrix)"
+    );
+    assert!(toml_err(&format!("{VOL}[[mesh]]\nholdout = true\n")).contains("file"));
 }

@@ -46,6 +46,8 @@ fn world_of(media: Media, lights: Vec<Light>, env: Rgb, camera: Camera) -> World
         environment: Environment::Constant(env),
         media,
         warnings: vec![],
+        shapes: vdbphoton::shape::Shapes::empty(),
+        film_transparent: false,
         load_seconds: 0.0,
     }
 }

@@ -14,6 +14,7 @@
 
 use crate::ray::Ray;
 use crate::sampling::Rng;
+use crate::shape::RayKind;
 use crate::world::World;
 use crate::Rgb;
 
@@ -33,7 +34,12 @@ pub fn along(world: &World, ray: &Ray, step: f32, rng: &mut Rng) -> Rgb {
     let mut tr = Rgb::ONE;
     let mut albedo = Rgb::ZERO;
     let mut ended = false;
-    media.for_each_segment_at(ray.o, ray.d, 0.0, f32::INFINITY, ray.time, |seg| {
+    // Up to the surface the camera sees (a hole: nothing beyond counts).
+    let hit = world
+        .shapes
+        .intersect(ray.o, ray.d, f32::INFINITY, RayKind::CAMERA);
+    let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+    media.for_each_segment_at(ray.o, ray.d, 0.0, t_max, ray.time, |seg| {
         if seg.max_density <= 0.0 {
             return true;
         }
@@ -53,7 +59,7 @@ pub fn along(world: &World, ray: &Ray, step: f32, rng: &mut Rng) -> Rgb {
         }
         true
     });
-    if !ended {
+    if !ended && hit.is_none() && !world.film_transparent {
         albedo += tr * world.environment.le(ray.d).min(Rgb::ONE);
     }
     albedo

@@ -9,6 +9,7 @@
 //! else names it (`auto`'s choice, `crate::render::choose_integrator`,
 //! picks between the two it knows).
 
+pub mod catcher;
 pub mod guide;
 pub mod nee;
 

@@ -8,6 +8,7 @@
 use crate::light::{Environment, Light};
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, Rng};
+use crate::shape::RayKind;
 use crate::tracking;
 use crate::world::World;
 use crate::Rgb;
@@ -93,6 +94,8 @@ impl EnvLight {
 
 /// Light arriving at `p` (at `time`) from `sources` along each one's sample, times the
 /// phase function and the transmittance, for NEE from a scattering event.
+/// A surface that casts shadows (Blender's shadow ray visibility) blocks a
+/// sample before its transmittance is walked.
 /// With
 /// `mis`, lights a phase-sampled ray can also hit are weighted by the power
 /// heuristic against phase sampling (the path tracer); without, the light
@@ -123,6 +126,9 @@ pub fn direct_light(
         if f <= 0.0 {
             continue;
         }
+        if world.shapes.occluded(p, ls.wi, ls.dist, RayKind::SHADOW) {
+            continue;
+        }
         let tr = tracking::transmittance(media, &Ray::at_time(p, ls.wi, time), ls.dist, rng);
         if tr.max_element() <= 0.0 {
             continue;
@@ -138,7 +144,7 @@ pub fn direct_light(
         if let Some((wi, le, pdf)) = world.environment.sample(rng.next_vec2()) {
             if pdf > 0.0 && le.max_element() > 0.0 {
                 let f = phase.eval(wo, wi);
-                if f > 0.0 {
+                if f > 0.0 && !world.shapes.occluded(p, wi, f32::INFINITY, RayKind::SHADOW) {
                     let tr = tracking::transmittance(
                         media,
                         &Ray::at_time(p, wi, time),

@@ -24,10 +24,12 @@
 //!   below [`RR_THRESHOLD`]; `max_bounces` real scattering events at most.
 
 use super::nee::{direct_light, EnvLight, Sources};
-use super::{Integrator, SampleKey, SampleResult};
+use super::{catcher, Integrator, SampleKey, SampleResult};
+use crate::film::CatcherSample;
 use crate::light::Light;
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, roulette, Rng};
+use crate::shape::RayKind;
 use crate::tracking::{self, sample_t_maj, Collision};
 use crate::world::World;
 use crate::Rgb;
@@ -110,6 +112,33 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32, sources: Sources) -> Rgb {
     l
 }
 
+/// Where a path starts, which decides what its first ray sees and what
+/// it makes of it (Blender's ray visibility and film semantics).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Start {
+    /// A camera ray. It stops at the surfaces camera rays see: a holdout,
+    /// and, surfaces not being shaded yet, every other mesh, adds nothing
+    /// (alpha is 1 − the transmittance up to it); a shadow catcher gets
+    /// the catcher's estimate ([`catcher::estimate`]) when the path takes
+    /// the lights. The world it sees directly counts, unless the film is
+    /// transparent.
+    Camera,
+    /// A ray leaving a diffuse surface (the shadow catcher's bounce): it
+    /// stops at what diffuse rays see (unshaded, black), and the world it
+    /// reaches unscattered counts.
+    Diffuse,
+}
+
+impl Start {
+    /// The kind of the path's first ray.
+    fn kind(self) -> RayKind {
+        match self {
+            Start::Camera => RayKind::CAMERA,
+            Start::Diffuse => RayKind::DIFFUSE,
+        }
+    }
+}
+
 /// One camera path along `ray` (every segment at its time), with at most
 /// `max_bounces` real scattering events. `transmittance` (the film's
 /// alpha) and, in emissive media, the emission along the camera ray itself
@@ -129,7 +158,22 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32, sources: Sources) -> Rgb {
 /// from 1.9e-4 to 2.2e-5 on the dense cloud under it, and from 7.0e-5 to
 /// 4.8e-5 on the cloud under a sun and a sky.
 pub fn trace(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> SampleResult {
-    trace_from(world, max_bounces, ray, rng, Sources::of(world))
+    trace_from(world, max_bounces, ray, rng, Sources::of(world), Start::Camera)
+}
+
+/// The light a ray leaving a shadow catcher towards `ray.d` receives (a
+/// path from [`Start::Diffuse`], all sources as [`Sources::of`] takes
+/// them): the catcher's bounce.
+pub fn bounce(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> Rgb {
+    trace_from(
+        world,
+        max_bounces,
+        ray,
+        rng,
+        Sources::of(world),
+        Start::Diffuse,
+    )
+    .l
 }
 
 /// [`trace`] for the light of `sources` only, taken as they say. With the
@@ -138,12 +182,18 @@ pub fn trace(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> Sampl
 /// emission, and no light along the camera ray before its first scattering
 /// (the march adds the background it sees): only the environment's light
 /// scattered once or more.
+///
+/// Surfaces stop every flight: the first at what `start`'s rays see,
+/// later ones (scattered in a volume) at what volume-scatter rays see; a
+/// flight that reaches a surface ends the path there (surfaces are not
+/// shaded yet), having gathered what the media gave it on the way.
 pub fn trace_from(
     world: &World,
     max_bounces: u32,
     ray: &Ray,
     rng: &mut Rng,
     sources: Sources,
+    start: Start,
 ) -> SampleResult {
     let media = &world.media;
     let env_only = !sources.lights;
@@ -171,6 +221,13 @@ pub fn trace_from(
         let mut new_pdf = 0.0;
         let segment = Ray::at_time(ray_o, ray_d, time);
         let first_flight = depth == 0;
+        let kind = if first_flight {
+            start.kind()
+        } else {
+            RayKind::VOLUME_SCATTER
+        };
+        let hit = world.shapes.intersect(ray_o, ray_d, f32::INFINITY, kind);
+        let t_max = hit.map_or(f32::INFINITY, |h| h.t);
         let on_collision = |c: &Collision, rng: &mut Rng| {
             let Some(step) = tracking::collide(c, beta, rng) else {
                 terminated = true;
@@ -222,23 +279,48 @@ pub fn trace_from(
             false
         };
         let left = if !env_only && first_flight {
-            let (left, tr, e) = tracking::sample_t_maj_camera(media, &segment, rng, on_collision);
+            let (left, tr, e) =
+                tracking::sample_t_maj_camera(media, &segment, t_max, rng, on_collision);
             res.l += e;
             res.emission += e;
             res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
             left
         } else {
-            sample_t_maj(media, &segment, f32::INFINITY, rng, on_collision)
+            sample_t_maj(media, &segment, t_max, rng, on_collision)
         };
+        // A camera ray whose surface is a shadow catcher gets the catcher's
+        // estimate, weighted as alpha is by the transmittance up to it
+        // (the camera walk's, over the whole ray: the pixel sees the
+        // catcher also where this path scatters or is absorbed first).
+        if let (true, Start::Camera, true, Some(h)) = (first_flight, start, sources.lights, hit) {
+            let flags = world.shapes.object(h.object).flags;
+            if flags.shadow_catcher && !flags.holdout {
+                res.catcher = Some(if res.transmittance > 0.0 {
+                    catcher::estimate(world, &h, time, rng, |r, rng| {
+                        bounce(world, max_bounces, r, rng)
+                    })
+                    .scaled(res.transmittance)
+                } else {
+                    CatcherSample::default()
+                });
+            }
+        }
         // A flight that neither scattered nor left the volumes used up its
         // tentative collisions (tracking::MAX_TENTATIVE): it ends.
         if terminated || (!scattered && !left) {
             break;
         }
+        if !scattered && hit.is_some() {
+            // The flight reached a surface: the path ends there (surfaces
+            // are not shaded yet).
+            break;
+        }
         if !scattered {
             // The path left every volume.
             if depth == 0 {
-                if !env_only {
+                // (A transparent film leaves out the world the camera sees.)
+                let transparent = start == Start::Camera && world.film_transparent;
+                if !env_only && !transparent {
                     res.l += beta * world.environment.le(ray_d);
                 }
             } else {

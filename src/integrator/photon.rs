@@ -52,6 +52,7 @@ use crate::photon::map::{density_radii, median, PointMap};
 use crate::photon::{self, Photon};
 use crate::ray::Ray;
 use crate::sampling::{radical_inverse_2, roulette, Domain, Rng};
+use crate::shape::{Hit, RayKind};
 use crate::scene::{Params, SceneDesc, ValidationError};
 use crate::world::World;
 use crate::Rgb;
@@ -835,7 +836,7 @@ impl Integrator for PhotonIntegrator {
     }
 
     fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, _key: SampleKey) -> SampleResult {
-        let mut res = STEPS.with(|s| {
+        let (mut res, hit) = STEPS.with(|s| {
             let mut steps = s.borrow_mut();
             steps.clear();
             self.march(world, ray, rng, &mut steps)
@@ -846,11 +847,33 @@ impl Integrator for PhotonIntegrator {
             // every sample when no photons are traced at all.
             let share = self.sky_share();
             if share >= 1.0 || rng.next_f32() < share {
-                let p = super::path::trace_from(world, self.max_bounces, ray, rng, sources);
+                let p = super::path::trace_from(
+                    world,
+                    self.max_bounces,
+                    ray,
+                    rng,
+                    sources,
+                    super::path::Start::Camera,
+                );
                 let w = 1.0 / share;
                 res.l += p.l * w;
                 res.direct += p.direct * w;
                 res.indirect += p.indirect * w;
+            }
+        }
+        if let Some(h) = hit {
+            // A shadow catcher: its estimate, weighted as alpha is by the
+            // transmittance up to it (0 where the march ended first).
+            let flags = world.shapes.object(h.object).flags;
+            if flags.shadow_catcher && !flags.holdout {
+                res.catcher = Some(if res.transmittance > 0.0 {
+                    super::catcher::estimate(world, &h, ray.time, rng, |r, rng| {
+                        super::path::bounce(world, self.max_bounces, r, rng)
+                    })
+                    .scaled(res.transmittance)
+                } else {
+                    crate::film::CatcherSample::default()
+                });
             }
         }
         res
@@ -952,21 +975,24 @@ impl Integrator for PhotonIntegrator {
 }
 
 impl PhotonIntegrator {
-    /// The march of one camera ray; see the module docs.
+    /// The march of one camera ray; see the module docs. It stops at the
+    /// first surface the camera sees, which it returns.
     fn march(
         &self,
         world: &World,
         ray: &Ray,
         rng: &mut Rng,
         steps: &mut Vec<MarchStep>,
-    ) -> SampleResult {
+    ) -> (SampleResult, Option<Hit>) {
         let Ray { o, d, time } = *ray;
         let media = &world.media;
         let mut res = SampleResult::default();
         let mut tr = Rgb::ONE;
         let mut ended = false;
         let jitter = rng.next_f32();
-        media.for_each_segment_at(o, d, 0.0, f32::INFINITY, time, |seg| {
+        let hit = world.shapes.intersect(o, d, f32::INFINITY, RayKind::CAMERA);
+        let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+        media.for_each_segment_at(o, d, 0.0, t_hit, time, |seg| {
             if seg.max_density <= 0.0 && seg.emission <= 0.0 {
                 return true;
             }
@@ -1008,7 +1034,7 @@ impl PhotonIntegrator {
         let t_end = if ended {
             steps.last().map_or(0.0, |s| s.t0 + s.dt)
         } else {
-            f32::INFINITY
+            t_hit
         };
         let wo = -d;
         // Single scattering at `light_samples` steps chosen by
@@ -1088,11 +1114,16 @@ impl PhotonIntegrator {
         }
         res.l = res.direct + res.indirect + res.emission;
         if !ended {
-            let le = world.environment.le(d);
-            res.l += tr * le;
+            // What the ray sees beyond the media: the world, unless a
+            // surface stops it (a hole: surfaces are not shaded yet) or
+            // the film is transparent.
+            if hit.is_none() && !world.film_transparent {
+                let le = world.environment.le(d);
+                res.l += tr * le;
+            }
             res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
         }
-        res
+        (res, hit)
     }
 }
 

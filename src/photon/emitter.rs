@@ -52,6 +52,10 @@ pub struct Emission {
     /// True for photons emitted by the media (their first collision is
     /// already light the march does not compute).
     pub from_media: bool,
+    /// True for photons of a light at infinity (a sun, the environment):
+    /// they start on a disk at the volumes' bounding sphere, and whatever
+    /// lies between there and the light must still be able to stop them.
+    pub from_infinity: bool,
 }
 
 /// Every photon source of a world, with the distribution that picks one.
@@ -165,10 +169,18 @@ impl Emitters {
             return None;
         }
         let (u, v) = (rng.next_vec2(), rng.next_vec2());
-        let (ray, from_media) = match self.sources[k] {
-            Source::Light(i) => (world.lights[i].sample_le(self.bounds, u, v)?, false),
-            Source::Environment => (world.environment.sample_le(self.bounds, u, v)?, false),
-            Source::Media => (self.sample_media(&world.media, time, u, v, rng)?, true),
+        let (ray, from_media, from_infinity) = match self.sources[k] {
+            Source::Light(i) => {
+                let light = &world.lights[i];
+                let infinite = matches!(light, crate::light::Light::Sun { .. });
+                (light.sample_le(self.bounds, u, v)?, false, infinite)
+            }
+            Source::Environment => (world.environment.sample_le(self.bounds, u, v)?, false, true),
+            Source::Media => (
+                self.sample_media(&world.media, time, u, v, rng)?,
+                true,
+                false,
+            ),
         };
         Some(Emission {
             ray: EmittedRay {
@@ -176,6 +188,7 @@ impl Emitters {
                 ..ray
             },
             from_media,
+            from_infinity,
         })
     }
 

@@ -7,6 +7,7 @@
 //! kept. Unbiased, since every place keeps a probability above zero
 //! ([`FLOOR`]); only the variance moves.
 
+use crate::shape::RayKind;
 use crate::world::World;
 use glam::{IVec3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -76,7 +77,12 @@ impl Importance {
                         let d = cam.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
                         let o = cam.position();
                         let mut tr = 1.0f32;
-                        media.for_each_segment(o, d, 0.0, f32::INFINITY, |seg| {
+                        // Up to the surface the camera sees there.
+                        let t_max = world
+                            .shapes
+                            .intersect(o, d, f32::INFINITY, RayKind::CAMERA)
+                            .map_or(f32::INFINITY, |h| h.t);
+                        media.for_each_segment(o, d, 0.0, t_max, |seg| {
                             if seg.max_density <= 0.0 && seg.emission <= 0.0 {
                                 return true;
                             }

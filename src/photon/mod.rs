@@ -47,6 +47,7 @@ pub mod map;
 
 use crate::ray::Ray;
 use crate::sampling::{roulette, Domain, Rng};
+use crate::shape::RayKind;
 use crate::tracking::{collide, sample_t_maj};
 use crate::world::World;
 use crate::Rgb;
@@ -252,54 +253,66 @@ fn trace_one(
     let media_bit = if e.from_media { FROM_MEDIA } else { 0 };
     flight.media_emitted = e.from_media as u64;
     let (mut o, mut d) = (e.ray.o, e.ray.d);
+    // Light from infinity starts at the volumes' bounding sphere: a surface
+    // beyond it, towards the light, still shadows it.
+    if e.from_infinity && world.shapes.occluded(o, -d, f32::INFINITY, RayKind::SHADOW) {
+        return flight;
+    }
     let mut collisions = 0u32;
     loop {
         let mut next: Option<(Vec3, Vec3)> = None;
-        sample_t_maj(
-            media,
-            &Ray::at_time(o, d, time),
-            f32::INFINITY,
-            rng,
-            |c, rng| {
-                let Some(step) = collide(c, power, rng) else {
-                    return false;
-                };
-                power *= step.weight;
-                if !step.scatter {
-                    return true;
+        // Light on its way from a light is what shadow rays carry; once
+        // scattered, or emitted by the media, volume-scatter rays (Blender's
+        // ray visibility). A surface ends the photon (surfaces are not
+        // shaded yet: they absorb).
+        let kind = if collisions == 0 && !e.from_media {
+            RayKind::SHADOW
+        } else {
+            RayKind::VOLUME_SCATTER
+        };
+        let t_max = world
+            .shapes
+            .intersect(o, d, f32::INFINITY, kind)
+            .map_or(f32::INFINITY, |h| h.t);
+        sample_t_maj(media, &Ray::at_time(o, d, time), t_max, rng, |c, rng| {
+            let Some(step) = collide(c, power, rng) else {
+                return false;
+            };
+            power *= step.weight;
+            if !step.scatter {
+                return true;
+            }
+            collisions += 1;
+            if collisions > max_bounces {
+                return false;
+            }
+            flight.collisions += 1;
+            flight.scattered = 1;
+            flight.media_scattered = e.from_media as u64;
+            if collisions >= 2 || e.from_media {
+                flight.eligible += 1;
+                let w = store.weight(c.p);
+                flight.weight += w as f64;
+                let q = (store.scale * w).min(1.0);
+                if q > 0.0 && (q >= 1.0 || rng.next_f32() < q) {
+                    let sigma_s = step.medium.unwrap_or_else(|| media.eval(c.p, time)).sigma_s;
+                    out.push(Photon {
+                        p: c.p,
+                        wi: -d,
+                        power: power / q,
+                        sigma_s: sigma_s.element_sum() / 3.0,
+                        tag: step.volume as u32 | media_bit,
+                    });
                 }
-                collisions += 1;
-                if collisions > max_bounces {
-                    return false;
-                }
-                flight.collisions += 1;
-                flight.scattered = 1;
-                flight.media_scattered = e.from_media as u64;
-                if collisions >= 2 || e.from_media {
-                    flight.eligible += 1;
-                    let w = store.weight(c.p);
-                    flight.weight += w as f64;
-                    let q = (store.scale * w).min(1.0);
-                    if q > 0.0 && (q >= 1.0 || rng.next_f32() < q) {
-                        let sigma_s = step.medium.unwrap_or_else(|| media.eval(c.p, time)).sigma_s;
-                        out.push(Photon {
-                            p: c.p,
-                            wi: -d,
-                            power: power / q,
-                            sigma_s: sigma_s.element_sum() / 3.0,
-                            tag: step.volume as u32 | media_bit,
-                        });
-                    }
-                }
-                if !roulette(&mut power, threshold, rng) {
-                    return false;
-                }
-                if let Some((nd, _)) = step.phase.sample_travel(d, rng.next_vec2()) {
-                    next = Some((c.p, nd));
-                }
-                false
-            },
-        );
+            }
+            if !roulette(&mut power, threshold, rng) {
+                return false;
+            }
+            if let Some((nd, _)) = step.phase.sample_travel(d, rng.next_vec2()) {
+                next = Some((c.p, nd));
+            }
+            false
+        });
         match next {
             Some((p, nd)) if power.is_finite() => {
                 o = p;

@@ -88,6 +88,11 @@ fn check_memory(
     let pixels = region.pixels() as u64;
     let film = Film::bytes_for(pixels as usize, r.aovs) as u64
         + pixels * image_bytes_per_pixel(r.aovs)
+        + if desc.meshes.iter().any(|m| m.shadow_catcher) {
+            pixels * Film::CATCHER_BYTES as u64
+        } else {
+            0
+        }
         + if r.denoise {
             pixels * Film::DENOISE_BYTES as u64
         } else {
@@ -107,10 +112,34 @@ fn check_memory(
             .max()
             .unwrap_or(0),
     };
-    let need = film + photons + grids;
+    let meshes = mesh_bytes(desc);
+    let mesh_total: u64 = meshes.iter().map(|m| m.1).sum();
+    let need = film + photons + grids + mesh_total;
     if need > limit {
+        let is = if crate::memory::limit().is_some() {
+            "is the limit"
+        } else {
+            "is available"
+        };
+        // A mesh that does not fit on its own is what to name.
+        if let Some((i, bytes, size)) = meshes.iter().copied().max_by_key(|m| m.1) {
+            if bytes > limit / 2 {
+                let m = &desc.meshes[i];
+                return Err(Error::file(
+                    &m.file,
+                    format!(
+                        "{} triangles and {} vertices need about {} of memory to render, but {} {is}; decimate the mesh or give --max-memory",
+                        size.triangles,
+                        size.vertices,
+                        gib(bytes),
+                        gib(limit),
+                    ),
+                )
+                .context(format!("[[mesh]] {} {}", i + 1, m.label())));
+            }
+        }
         return Err(Error::Argument(format!(
-            "the render needs about {} (film and images{} {} for {} x {} pixels, photon map {}, grids {}) but {} {}; lower the image size or [render.photon] photons, or give --max-memory",
+            "the render needs about {} (film and images{} {} for {} x {} pixels, photon map {}, grids {}, meshes {}) but {} {is}; lower the image size or [render.photon] photons, or give --max-memory",
             gib(need),
             if denoise { " and denoising" } else { "" },
             gib(film),
@@ -118,11 +147,29 @@ fn check_memory(
             region.height(),
             gib(photons),
             gib(grids),
+            gib(mesh_total),
             gib(limit),
-            if crate::memory::limit().is_some() { "is the limit" } else { "is available" }
         )));
     }
     Ok(())
+}
+
+/// What each `[[mesh]]` will take in memory once loaded, from its file's
+/// header (PLY) or lines (OBJ): its index, bytes and size. A file that
+/// cannot be read counts nothing here; loading it says what is wrong.
+fn mesh_bytes(desc: &SceneDesc) -> Vec<(usize, u64, crate::mesh::MeshSize)> {
+    desc.meshes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| {
+            let size = crate::mesh::size_of_file(&m.file).ok()?;
+            let bytes = size
+                .triangles
+                .saturating_mul(crate::shape::BYTES_PER_TRIANGLE)
+                .saturating_add(size.vertices.saturating_mul(2 * 12));
+            Some((i, bytes, size))
+        })
+        .collect()
 }
 
 /// Checks before any work that the outputs can be written: the EXR must end
@@ -383,6 +430,27 @@ fn attributes(
                 m.position.name(),
                 m.fps
             ),
+        ));
+    }
+    if r.film_transparent {
+        a.push(("vdbphoton/film_transparent".to_string(), "true".to_string()));
+    }
+    if !desc.meshes.is_empty() {
+        a.push((
+            "vdbphoton/meshes".to_string(),
+            desc.meshes
+                .iter()
+                .map(|m| {
+                    let mut s = m.label();
+                    if m.holdout {
+                        s.push_str(" holdout");
+                    } else if m.shadow_catcher {
+                        s.push_str(" shadow_catcher");
+                    }
+                    s
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
         ));
     }
     for (k, v) in integrator.attributes() {
@@ -693,6 +761,9 @@ pub fn render_scene(
             );
         }
         let mut film = Film::new(r.width, r.height, region, r.aovs);
+        if world.shapes.has_catcher() {
+            film = film.with_catcher();
+        }
         if r.denoise {
             film = film.with_guides();
             if integrator.denoise_blended() {

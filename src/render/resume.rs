@@ -161,6 +161,7 @@ pub fn binary_fingerprint() -> &'static str {
 /// simulated again under the same name is another scene).
 pub fn scene_fingerprint(desc: &SceneDesc) -> String {
     let mut files: Vec<&Path> = desc.volumes.iter().map(|v| v.file.as_path()).collect();
+    files.extend(desc.meshes.iter().map(|m| m.file.as_path()));
     if let EnvironmentDesc::Map { path, .. } = &desc.environment {
         files.push(path);
     }

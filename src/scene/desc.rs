@@ -20,6 +20,8 @@ pub struct SceneDesc {
     pub lights: Vec<LightDesc>,
     pub environment: EnvironmentDesc,
     pub volumes: Vec<VolumeDesc>,
+    /// Surfaces (`[[mesh]]`): occluders, holdouts, shadow catchers.
+    pub meshes: Vec<MeshDesc>,
     /// What the scene file said that still works but should change
     /// (deprecated keys), for the render to report.
     pub warnings: Vec<String>,
@@ -164,6 +166,10 @@ pub struct RenderDesc {
     /// Go on from the state a killed render's last checkpoint left beside
     /// the EXR (`resume`, `--resume`; `crate::render::resume`).
     pub resume: bool,
+    /// Blender's Film > Transparent (`film_transparent`): the world seen
+    /// directly is left out of the colour, so RGBA is premultiplied and
+    /// composites with a plain "over".
+    pub film_transparent: bool,
 }
 
 /// Blender's Motion Blur panel (Render Properties): whether moving
@@ -276,6 +282,7 @@ impl Default for RenderDesc {
             denoise: false,
             denoise_quality: DenoiseQuality::High,
             resume: false,
+            film_transparent: false,
         }
     }
 }
@@ -428,6 +435,62 @@ pub struct VolumeDesc {
     pub velocity_scale: Vec3,
     /// What the velocities measure (`velocity_unit`).
     pub velocity_unit: VelocityUnit,
+}
+
+/// One `[[mesh]]`: a triangle mesh placed in the scene, with Blender's
+/// object visibility.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshDesc {
+    /// The object's name (`name`, Blender's), for messages; `None`: none
+    /// given.
+    pub name: Option<String>,
+    /// The mesh file (`.ply` or `.obj`), resolved against the scene file's
+    /// directory.
+    pub file: PathBuf,
+    /// Object to world (`transform`).
+    pub transform: DAffine3,
+    /// Blender's Object > Visibility > Mask > Holdout (`holdout`).
+    pub holdout: bool,
+    /// Blender's Object > Visibility > Mask > Shadow Catcher
+    /// (`shadow_catcher`).
+    pub shadow_catcher: bool,
+    /// Blender's Object > Visibility > Ray Visibility (`visibility`).
+    pub visibility: RayVisibility,
+}
+
+/// Which kinds of rays see an object (Blender's ray visibility; all of
+/// them by default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RayVisibility {
+    pub camera: bool,
+    pub shadow: bool,
+    pub diffuse: bool,
+    pub glossy: bool,
+    pub transmission: bool,
+    pub volume_scatter: bool,
+}
+
+impl Default for RayVisibility {
+    fn default() -> Self {
+        Self {
+            camera: true,
+            shadow: true,
+            diffuse: true,
+            glossy: true,
+            transmission: true,
+            volume_scatter: true,
+        }
+    }
+}
+
+impl MeshDesc {
+    /// How messages name it: its `name`, else its file's name.
+    pub fn label(&self) -> String {
+        match &self.name {
+            Some(n) => format!("'{n}'"),
+            None => format!("'{}'", self.file.display()),
+        }
+    }
 }
 
 /// `[[volume]] bounds`: the box of a volume that automatic framing

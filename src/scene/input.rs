@@ -15,8 +15,8 @@ use serde::Deserialize;
 
 use super::desc::{
     affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, DenoiseQuality, EnvironmentDesc,
-    LightDesc, MaterialDesc, MotionBlurDesc, Param, Params, PhaseDesc, Principled, RenderDesc,
-    SceneDesc, ShutterPosition, VelocityUnit, VolumeDesc,
+    LightDesc, MaterialDesc, MeshDesc, MotionBlurDesc, Param, Params, PhaseDesc, Principled,
+    RayVisibility, RenderDesc, SceneDesc, ShutterPosition, VelocityUnit, VolumeDesc,
 };
 use super::desc::{CameraPose, Lens, SensorFit, VolumeBounds, AUTO_VIEW_DIRECTION};
 use super::error::{kp, PathSeg, ValidationError};
@@ -121,6 +121,8 @@ pub(crate) struct SceneIn {
     environment: EnvironmentIn,
     #[serde(default)]
     volume: Vec<VolumeIn>,
+    #[serde(default)]
+    mesh: Vec<MeshIn>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -151,6 +153,7 @@ pub(crate) struct RenderIn {
     denoise: Option<bool>,
     denoise_quality: Option<DenoiseQualityIn>,
     resume: Option<bool>,
+    film_transparent: Option<bool>,
     /// The integrators' tables `[render.NAME]`, taken out of `[render]`
     /// before serde reads it (`super::parse_toml`): their names are not
     /// known here.
@@ -362,6 +365,28 @@ struct VolumeIn {
     velocity_unit: Option<VelocityUnitIn>,
 }
 
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct MeshIn {
+    file: String,
+    name: Option<String>,
+    transform: Option<TransformIn>,
+    holdout: Option<bool>,
+    shadow_catcher: Option<bool>,
+    visibility: Option<VisibilityIn>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct VisibilityIn {
+    camera: Option<bool>,
+    shadow: Option<bool>,
+    diffuse: Option<bool>,
+    glossy: Option<bool>,
+    transmission: Option<bool>,
+    volume_scatter: Option<bool>,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(rename_all = "lowercase")]
 enum BlackbodyFilterIn {
@@ -489,6 +514,12 @@ impl SceneIn {
             .enumerate()
             .map(|(i, v)| v.into_desc(base, &kp!["volume", i]))
             .collect::<Conv<Vec<_>>>()?;
+        let meshes = self
+            .mesh
+            .into_iter()
+            .enumerate()
+            .map(|(i, m)| m.into_desc(base, &kp!["mesh", i]))
+            .collect::<Conv<Vec<_>>>()?;
         let mut warnings = Vec::new();
         Ok(SceneDesc {
             render: self.render.into_desc(base, &mut warnings)?,
@@ -496,6 +527,7 @@ impl SceneIn {
             lights,
             environment: self.environment.into_desc(base)?,
             volumes,
+            meshes,
             warnings,
         })
     }
@@ -599,6 +631,7 @@ impl RenderIn {
                 Some(DenoiseQualityIn::Fast) => DenoiseQuality::Fast,
             },
             resume: self.resume.unwrap_or(d.resume),
+            film_transparent: self.film_transparent.unwrap_or(d.film_transparent),
         })
     }
 }
@@ -885,6 +918,31 @@ impl VolumeIn {
             velocity_unit: match self.velocity_unit {
                 None | Some(VelocityUnitIn::Second) => VelocityUnit::Second,
                 Some(VelocityUnitIn::Frame) => VelocityUnit::Frame,
+            },
+        })
+    }
+}
+
+impl MeshIn {
+    fn into_desc(self, base: &Path, path: &[PathSeg]) -> Conv<MeshDesc> {
+        let d = RayVisibility::default();
+        let v = self.visibility.unwrap_or_default();
+        Ok(MeshDesc {
+            name: self.name,
+            file: resolve(base, &self.file, with(path, "file"))?,
+            transform: match self.transform {
+                Some(t) => t.into_desc(&with(path, "transform"))?,
+                None => DAffine3::IDENTITY,
+            },
+            holdout: self.holdout.unwrap_or(false),
+            shadow_catcher: self.shadow_catcher.unwrap_or(false),
+            visibility: RayVisibility {
+                camera: v.camera.unwrap_or(d.camera),
+                shadow: v.shadow.unwrap_or(d.shadow),
+                diffuse: v.diffuse.unwrap_or(d.diffuse),
+                glossy: v.glossy.unwrap_or(d.glossy),
+                transmission: v.transmission.unwrap_or(d.transmission),
+                volume_scatter: v.volume_scatter.unwrap_or(d.volume_scatter),
             },
         })
     }

@@ -30,9 +30,9 @@ pub const MAX_SCENE_BYTES: u64 = 1 << 20;
 
 pub use desc::{
     affine_from_rows, compose_trs, euler_xyz_deg, BlackbodyFilter, CameraDesc, CameraPose,
-    DenoiseQuality, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MotionBlurDesc, Param, Params,
-    PhaseDesc, Principled, RenderDesc, SceneDesc, SensorFit, ShutterPosition, VelocityUnit,
-    VolumeBounds, VolumeDesc, AUTO_INTEGRATOR, AUTO_VIEW_DIRECTION,
+    DenoiseQuality, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MeshDesc, MotionBlurDesc,
+    Param, Params, PhaseDesc, Principled, RayVisibility, RenderDesc, SceneDesc, SensorFit,
+    ShutterPosition, VelocityUnit, VolumeBounds, VolumeDesc, AUTO_INTEGRATOR, AUTO_VIEW_DIRECTION,
 };
 pub use error::{PathSeg, SceneError, ValidationError};
 pub use validate::{MAX_PIXELS, MAX_SHUTTER};

@@ -200,6 +200,19 @@ impl SceneDesc {
                 }
             }
         }
+        for (i, mesh) in self.meshes.iter().enumerate() {
+            let path = kp!["mesh", i];
+            let t = &mesh.transform;
+            if !t.is_finite() {
+                return err(with(&path, "transform"), "must be finite numbers");
+            }
+            if t.matrix3.determinant() == 0.0 {
+                return err(
+                    with(&path, "transform"),
+                    "is singular (a zero scale or degenerate matrix)",
+                );
+            }
+        }
         if self.volumes.is_empty() {
             return err(vec![], "no [[volume]]: a scene needs at least one volume");
         }
