@@ -1328,14 +1328,13 @@ class Exporter:
             found = self.mesh_instances(self.depsgraph)
         else:
             found = self.render_depsgraph(self.mesh_instances)
-        entries = self.mesh_entries(found)
-        if entries:
-            tris = sum(len(self.meshes[k]['tri']) for k in {e['_key'] for e in entries})
-            self.note(f"meshes: {len(entries)} instance{'s' if len(entries) != 1 else ''} of "
-                      f"{len({e['_key'] for e in entries})} distinct "
-                      f"mesh{'es' if len(self.meshes) != 1 else ''} ({tris} triangles) read in "
-                      f"{time.time() - t0:.2f} s")
-        return entries
+        if found:
+            keys = {f['key'] for f in found}
+            tris = sum(len(self.meshes[k]['tri']) for k in keys)
+            self.note(f"meshes: {len(found)} instance{'s' if len(found) != 1 else ''} of "
+                      f"{len(keys)} distinct mesh{'es' if len(keys) != 1 else ''} ({tris} "
+                      f"triangles) read in {time.time() - t0:.2f} s")
+        return self.mesh_entries(found)
 
     def mesh_instances(self, depsgraph):
         """What Cycles renders as a surface: every instance of the depsgraph
@@ -1467,17 +1466,20 @@ class Exporter:
         co = co.reshape(-1, 3)
         tri = tri.reshape(-1, 3)
         bad = ~np.isfinite(co).all(axis=1)
-        drop = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
+        repeated = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
+        nonfinite = bad[tri].any(axis=1)
         if bad.any():
-            drop |= bad[tri].any(axis=1)
             co[bad] = 0.0
-            self.warn(f"{what}: {int(bad.sum())} vertices are not finite numbers; the triangles "
-                      "using them are left out")
-        if drop.any():
-            n = int(drop.sum())
-            tri = tri[~drop]
-            self.warn(f"{what}: {n} triangle{'s' if n != 1 else ''} with a repeated or non-finite "
-                      "vertex left out")
+            nv, nt = int(bad.sum()), int(nonfinite.sum())
+            self.warn(f"{what}: {nv} vert{'ices are' if nv != 1 else 'ex is'} not a finite "
+                      f"number; the {nt} triangle{'s' if nt != 1 else ''} using "
+                      f"{'them' if nv != 1 else 'it'} {'are' if nt != 1 else 'is'} left out")
+        if (repeated & ~nonfinite).any():
+            n = int((repeated & ~nonfinite).sum())
+            self.warn(f"{what}: {n} triangle{'s' if n != 1 else ''} with a repeated vertex "
+                      "(no area) left out")
+        if (repeated | nonfinite).any():
+            tri = tri[~(repeated | nonfinite)]
         if len(tri) == 0:
             self.warn(f"{what} has no triangles left to render; not exported")
             return None
