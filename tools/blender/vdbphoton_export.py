@@ -1365,10 +1365,12 @@ class Exporter:
                 curves.append(ob)
                 continue
             if ob.type != 'MESH' or not isinstance(ob.data, bpy.types.Mesh):
+                # (Objects of the view layer are warned about by
+                # check_other; instances of them here.)
                 if ob.type in ('CURVES', 'POINTCLOUD', 'GPENCIL', 'GREASEPENCIL') and \
-                        orig.name_full not in told:
+                        is_inst and orig.name_full not in told:
                     told.add(orig.name_full)
-                    by = f" (instanced by '{parent.name}')" if is_inst else ''
+                    by = f" (instanced by '{parent.name}')"
                     self.warn(f"{OBJECT_KINDS.get(ob.type, ob.type)} object '{orig.name}'{by} "
                               "is rendered by Blender, but vdbphoton renders only volumes and "
                               "meshes; not exported")
