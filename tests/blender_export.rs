@@ -41,12 +41,26 @@
 //! without blackbody 0.85968 and 16858 6033 563.
 //!
 //! `blender_export_warns_and_refuses`: unsupported things (area light, soft
-//! light, sky texture, a metaball and a mesh with volume materials, a plain
-//! mesh, a visible fire flow, a fire domain whose cache has no flame grid, a
-//! domain without fire whose material reads `temperature`) give warnings
-//! naming the object, material and node; `--cache-temperature` exports the
-//! cache's grid with a note; no camera, and an unwritable output, give
-//! one-line errors and exit status 1.
+//! light, sky texture, a metaball and a mesh with volume materials, a fire
+//! domain whose cache has no flame grid, a domain without fire whose
+//! material reads `temperature`) give warnings naming the object, material
+//! and node; a plain mesh and a visible fire flow are exported as meshes;
+//! `--cache-temperature` exports the cache's grid with a note; no camera,
+//! and an unwritable output, give one-line errors and exit status 1.
+//!
+//! `blender_exports_meshes_as_blender_renders_them`: the meshes of
+//! `tools/blender/test_export/mesh_scene.py`'s scene (a shadow catcher
+//! ground, a holdout ball and its linked duplicate without shadows, a
+//! collection instance and Geometry Nodes instances of another ball, an
+//! object in a Holdout collection and one in its child collection, one in an
+//! Indirect Only collection, a subdivided cube hidden in the viewport, text,
+//! an animated cube, an empty mesh, a volume-only mesh, an invisible and a
+//! render-disabled cube, Film > Transparent): each instance's [[mesh]] with
+//! Cycles' flags, the PLY's triangle count, instances of one mesh sharing
+//! one file, and the PLY's vertices through the entry's matrix equal to the
+//! world-space vertices the script computed from the objects' transforms;
+//! then the export time of a 1,002,528-triangle mesh (printed, not
+//! asserted).
 //!
 //! The Python with bpy: `$VDBPHOTON_BPY_PYTHON`, else
 //! `target/venv-bpy/bin/python`, else `/work/venv-bpy/bin/python`; with
@@ -825,8 +839,6 @@ fn blender_export_warns_and_refuses() {
         "world 'Sky world': node 'Sky Texture' (Sky Texture) is not supported",
         "metaball object 'Blob': material 'Blob fog' node 'Principled Volume'",
         "mesh object 'Fog box': material 'Fog material' node 'Principled Volume'",
-        "mesh object 'Ground' is rendered by Blender as a surface",
-        "mesh object 'Torch' (fluid flow) is rendered by Blender as a surface",
         "fluid domain 'Fire Domain': material 'Fire material' node 'Principled Volume' reads \
          attribute 'temperature' (Temperature Attribute), which Blender makes from the 'flame' \
          grid, but the cache has no 'flame' grid (grids: density)",
@@ -858,6 +870,21 @@ fn blender_export_warns_and_refuses() {
         vols.len(),
         3,
         "the cloud and the two domains; no metaball, no mesh, no flow"
+    );
+    // The plain mesh and the visible flow are meshes Blender renders; the
+    // volume-only mesh and metaball are not.
+    let meshes: Vec<&str> = get(&doc, "mesh")
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(meshes, ["Ground", "Torch"], "bad.blend's meshes");
+    assert!(
+        !warnings
+            .iter()
+            .any(|w| w.contains("'Ground'") || w.contains("'Torch'")),
+        "{warnings:#?}"
     );
     for k in [1, 2] {
         let v = get(&doc, &format!("volume.{k}"));
@@ -1151,6 +1178,36 @@ fn blender_renders_with_the_vdbphoton_engine() {
     assert!(first.iter().any(|&b| b != 0), "the first layer is empty");
     assert_eq!(first, second, "the second view layer did not get its image");
 
+    // The Shadow Catcher pass: registered as Cycles registers it (the view
+    // layer's pass) and whenever the scene has a catcher, also in an
+    // instanced collection; with no catcher rendered, 1 everywhere.
+    let (cp, console) = case("catcherpass");
+    let with = serde_json::json!([
+        "Combined",
+        "Direct",
+        "Indirect",
+        "Emission",
+        "Transmittance",
+        "Shadow Catcher"
+    ]);
+    assert_eq!(
+        cp["registered"],
+        serde_json::json!({
+            "plain": ["Combined", "Direct", "Indirect", "Emission", "Transmittance"],
+            "view_layer_pass": with, "instanced_catcher": with
+        }),
+        "{console}"
+    );
+    assert_eq!(cp["saved"], true, "{console}");
+    let bits = channel_bits(&dir.join("catcherpass/nocatcher.exr"));
+    for c in ["R", "G", "B"] {
+        let key = format!("ViewLayer.Shadow Catcher.{c}");
+        let px = bits
+            .get(&key)
+            .unwrap_or_else(|| panic!("no pass {key} in {:?}", bits.keys()));
+        assert!(px.iter().all(|&b| b == 1f32.to_bits()), "{key} is not 1");
+    }
+
     let (anim, _) = case("animation");
     assert_eq!(
         anim["files"],
@@ -1193,4 +1250,414 @@ fn blender_renders_with_the_vdbphoton_engine() {
     assert!(after < 1.5, "the render went on {after} s after Esc");
     assert_eq!(cancel["alive"], serde_json::json!([]), "{cancel}");
     assert_eq!(cancel["temp_left"], serde_json::json!([]), "{cancel}");
+}
+
+// ------------------------------------------------------------------ meshes
+
+/// A binary little-endian PLY as the exporter writes it: vertex float x y
+/// z, face list uchar int vertex_indices (triangles).
+fn read_ply(path: &Path) -> (Vec<[f32; 3]>, Vec<[i32; 3]>) {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap_or_else(|| panic!("{}: no end_header", path.display()))
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    let lines: Vec<&str> = header.lines().collect();
+    assert_eq!(lines[0], "ply");
+    assert_eq!(lines[1], "format binary_little_endian 1.0");
+    let count = |what: &str| -> usize {
+        lines
+            .iter()
+            .find_map(|l| l.strip_prefix(&format!("element {what} ")))
+            .unwrap_or_else(|| panic!("{}: no element {what}", path.display()))
+            .parse()
+            .unwrap()
+    };
+    let (nv, nf) = (count("vertex"), count("face"));
+    for p in [
+        "property float x",
+        "property float y",
+        "property float z",
+        "property list uchar int vertex_indices",
+    ] {
+        assert!(lines.contains(&p), "{}: no '{p}'", path.display());
+    }
+    assert_eq!(
+        bytes.len(),
+        end + nv * 12 + nf * 13,
+        "{}: size for {nv} vertices and {nf} triangles",
+        path.display()
+    );
+    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    let i32_at = |o: usize| i32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    let verts = (0..nv)
+        .map(|i| {
+            let o = end + 12 * i;
+            [f32_at(o), f32_at(o + 4), f32_at(o + 8)]
+        })
+        .collect();
+    let base = end + 12 * nv;
+    let tris = (0..nf)
+        .map(|i| {
+            let o = base + 13 * i;
+            assert_eq!(
+                bytes[o],
+                3,
+                "{}: face {i} is not a triangle",
+                path.display()
+            );
+            let t = [i32_at(o + 1), i32_at(o + 5), i32_at(o + 9)];
+            for v in t {
+                assert!(
+                    v >= 0 && (v as usize) < nv,
+                    "{}: face {i}: index {v} of {nv}",
+                    path.display()
+                );
+            }
+            t
+        })
+        .collect();
+    (verts, tris)
+}
+
+/// The number in a `vdbphoton_export: note:` line after `after` (e.g. the
+/// seconds of "read in 0.31 s").
+fn note_number(notes: &[String], prefix: &str, after: &str) -> Option<f64> {
+    let n = notes.iter().find(|n| n.starts_with(prefix))?;
+    let rest = &n[n.find(after)? + after.len()..];
+    rest.split_whitespace().next()?.parse().ok()
+}
+
+#[test]
+fn blender_exports_meshes_as_blender_renders_them() {
+    let Some(py) = bpy_python() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let cloud = dir.join("cloud.vdb");
+    ok(
+        run(
+            Command::new(BIN)
+                .args(["generate", "cloud"])
+                .arg(&cloud)
+                .args(["--res", "32"]),
+            "vdbphoton generate cloud",
+        ),
+        "vdbphoton generate cloud",
+    );
+    ok(
+        run(
+            Command::new(&py)
+                .arg(repo().join("tools/blender/test_export/mesh_scene.py"))
+                .arg(dir)
+                .arg("--cloud")
+                .arg(&cloud),
+            "mesh_scene.py",
+        ),
+        "mesh_scene.py",
+    );
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
+
+    // ---- the scene: three frames, so that the animated cube is warned about
+    let toml_path = dir.join("meshes.toml");
+    let out = ok(
+        export(
+            &py,
+            &dir.join("meshes.blend"),
+            &toml_path,
+            &["--frames", "1-3"],
+        ),
+        "vdbphoton_export.py meshes.blend",
+    );
+    let warnings = exporter_lines(&out.stderr, "warning");
+    let notes = exporter_lines(&out.stderr, "note");
+    for w in &warnings {
+        eprintln!("exporter warning: {w}");
+    }
+    for n in &notes {
+        eprintln!("exporter note: {n}");
+    }
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("Traceback"),
+        "a Python traceback:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for expected in [
+        "mesh object 'Fog box': material 'Fog material' node 'Principled Volume' fills the mesh \
+         with a homogeneous volume",
+        "mesh object 'Empty mesh' has no faces (nothing to render); not exported",
+        "object 'Spinner' is animated, but its mesh is exported as it is at frame 2 for every \
+         frame of 1-3",
+    ] {
+        assert!(
+            warnings.iter().any(|w| w.starts_with(expected)),
+            "no warning starting with {expected:?} in {warnings:#?}"
+        );
+    }
+    assert_eq!(warnings.len(), 3, "unexpected warnings: {warnings:#?}");
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("meshes: 13 instances of 9 distinct meshes")),
+        "{notes:#?}"
+    );
+
+    let doc: toml::Value = toml::from_str(&std::fs::read_to_string(&toml_path).unwrap()).unwrap();
+    assert_eq!(get(&doc, "render.film_transparent").as_bool(), Some(true));
+    let meshes = get(&doc, "mesh").as_array().unwrap();
+    let by_name: std::collections::BTreeMap<&str, &toml::Value> = meshes
+        .iter()
+        .map(|m| (m["name"].as_str().unwrap(), m))
+        .collect();
+    assert_eq!(by_name.len(), meshes.len(), "names are not unique");
+    let want = expected["meshes"].as_object().unwrap();
+    assert_eq!(
+        by_name.keys().copied().collect::<Vec<_>>(),
+        want.keys().map(String::as_str).collect::<Vec<_>>(),
+        "the exported meshes"
+    );
+    for absent in expected["absent"].as_array().unwrap() {
+        let a = absent.as_str().unwrap();
+        assert!(
+            !by_name.keys().any(|n| *n == a),
+            "'{a}' must not be exported"
+        );
+    }
+    let mut share: std::collections::BTreeMap<&str, &str> = Default::default();
+    let mut files = std::collections::BTreeSet::new();
+    for (name, e) in want {
+        let m = by_name[name.as_str()];
+        let what = format!("[[mesh]] '{name}'");
+        // Flags: holdout and shadow_catcher written, visibility only its
+        // false keys.
+        assert_eq!(
+            m["holdout"].as_bool(),
+            e["holdout"].as_bool(),
+            "{what}: holdout"
+        );
+        assert_eq!(
+            m["shadow_catcher"].as_bool(),
+            e["shadow_catcher"].as_bool(),
+            "{what}: shadow_catcher"
+        );
+        let mut off: Vec<String> = match m.get("visibility") {
+            None => vec![],
+            Some(v) => v
+                .as_table()
+                .unwrap()
+                .iter()
+                .map(|(k, x)| {
+                    assert_eq!(x.as_bool(), Some(false), "{what}: visibility.{k}");
+                    k.clone()
+                })
+                .collect(),
+        };
+        off.sort();
+        let want_off: Vec<String> = e["visibility_off"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_str().unwrap().to_string())
+            .collect();
+        assert_eq!(off, want_off, "{what}: visibility");
+        // One file per distinct mesh, relative to the scene file.
+        let file = m["file"].as_str().unwrap();
+        assert!(file.starts_with("meshes_meshes/"), "{what}: file {file}");
+        let group = e["share"].as_str().unwrap();
+        match share.get(group) {
+            Some(f) => assert_eq!(*f, file, "{what}: instances of '{group}' share a file"),
+            None => {
+                assert!(files.insert(file), "{what}: {file} is another mesh's file");
+                share.insert(group, file);
+            }
+        }
+        let (verts, tris) = read_ply(&dir.join(file));
+        assert!(!tris.is_empty(), "{what}: no triangles");
+        if let Some(n) = e["triangles"].as_u64() {
+            assert_eq!(tris.len() as u64, n, "{what}: triangles");
+        }
+        assert!(
+            verts.iter().flatten().all(|x| x.is_finite()),
+            "{what}: vertices"
+        );
+        // The vertices through the matrix: Blender's world-space vertices.
+        let mat = matrix(m, "transform.matrix");
+        if let Some(world) = e["world"].as_array() {
+            assert_eq!(world.len(), verts.len(), "{what}: vertex count");
+            let mut worst = 0.0f64;
+            for (v, w) in verts.iter().zip(world) {
+                let p = mat.transform_point3(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64));
+                let w: Vec<f64> = w
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_f64().unwrap())
+                    .collect();
+                worst = worst.max((p - DVec3::new(w[0], w[1], w[2])).length());
+            }
+            assert!(worst < 2e-6, "{what}: vertices {worst} off Blender's");
+        }
+    }
+    // The Holdout collection's own object only, as Cycles 5.0.1 renders it.
+    assert_eq!(by_name["Masked"]["holdout"].as_bool(), Some(true));
+    assert_eq!(by_name["Inner"]["holdout"].as_bool(), Some(false));
+    // Every PLY in the folder is one of the scene's.
+    let on_disk = common::dir_entries(&dir.join("meshes_meshes"));
+    assert_eq!(on_disk.len(), files.len(), "{on_disk:?}");
+
+    // ---- 1,500 instances: merged, one world-space mesh per set of flags;
+    // bad data: warnings, never a traceback.
+    let out = ok(
+        export(&py, &dir.join("many.blend"), &dir.join("many.toml"), &[]),
+        "vdbphoton_export.py many.blend",
+    );
+    let warnings = exporter_lines(&out.stderr, "warning");
+    for expected in [
+        "mesh object 'Broken': 1 vertex is not a finite number; the 4 triangles using it are \
+         left out",
+        "mesh object 'Flat': its transform is not invertible",
+        "1501 mesh instances: merged into 2 world-space meshes",
+    ] {
+        assert!(
+            warnings.iter().any(|w| w.starts_with(expected)),
+            "no warning starting with {expected:?} in {warnings:#?}"
+        );
+    }
+    assert_eq!(warnings.len(), 3, "{warnings:#?}");
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("Traceback"));
+    let doc: toml::Value =
+        toml::from_str(&std::fs::read_to_string(dir.join("many.toml")).unwrap()).unwrap();
+    let meshes = get(&doc, "mesh").as_array().unwrap();
+    assert_eq!(meshes.len(), 2);
+    for (m, holdout, tris) in [
+        (&meshes[0], false, 1200 * 12 + 12 - 4),
+        (&meshes[1], true, 300 * 12),
+    ] {
+        assert_eq!(m["holdout"].as_bool(), Some(holdout));
+        close_mat(
+            matrix(m, "transform.matrix"),
+            DMat4::IDENTITY,
+            0.0,
+            "merged",
+        );
+        let (verts, t) = read_ply(&dir.join(m["file"].as_str().unwrap()));
+        assert_eq!(t.len(), tris, "{m}");
+        if holdout {
+            // 15 x 20 cubes 0.05 wide, 0.1 apart, from (-1.5, -1, 1.5).
+            let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+            for v in &verts {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(v[k]);
+                    hi[k] = hi[k].max(v[k]);
+                }
+            }
+            close_vec(
+                &lo.map(f64::from),
+                &[-1.525, -1.025, 1.475],
+                1e-6,
+                "merged holdouts, min",
+            );
+            close_vec(
+                &hi.map(f64::from),
+                &[-0.075, 0.925, 1.525],
+                1e-6,
+                "merged holdouts, max",
+            );
+        }
+    }
+
+    // ---- 1,002,528 triangles: exported in seconds (printed, not asserted)
+    let t = Instant::now();
+    let out = ok(
+        export(&py, &dir.join("big.blend"), &dir.join("big.toml"), &[]),
+        "vdbphoton_export.py big.blend",
+    );
+    let wall = t.elapsed().as_secs_f64();
+    let notes = exporter_lines(&out.stderr, "note");
+    let read = note_number(&notes, "meshes: 1 instance", " read in ").unwrap_or(f64::NAN);
+    let written = note_number(&notes, "meshes: 1 PLY file", " in ").unwrap_or(f64::NAN);
+    let (verts, tris) = read_ply(&dir.join("big_meshes/Big.ply"));
+    assert_eq!((verts.len(), tris.len()), (502_681, 1_002_528));
+    eprintln!(
+        "export of a {}-triangle mesh: meshes read in {read:.2} s, written in {written:.2} s; \
+         the whole export (Python, bpy, the .blend) {wall:.2} s",
+        tris.len()
+    );
+}
+
+/// F12 of a scene with a shadow catcher ground and a holdout ball in front of
+/// a cloud, film transparent (`engine_render.py catcher`): the image equals
+/// the command line's render of the exported scene, and vdbphoton's
+/// `shadow_catcher` layer is Blender's Shadow Catcher pass. Needs the
+/// renderer's meshes (issue 49).
+#[test]
+fn blender_engine_renders_meshes_with_the_shadow_catcher_pass() {
+    let Some(py) = bpy_python() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let vdb = dir.join("cloud.vdb");
+    ok(
+        run(
+            Command::new(BIN)
+                .args(["generate", "cloud"])
+                .arg(&vdb)
+                .args(["--res", "32"]),
+            "generate",
+        ),
+        "generate",
+    );
+    let out_dir = dir.join("catcher");
+    let temp = out_dir.join("tmp");
+    std::fs::create_dir_all(&temp).unwrap();
+    let out = ok(
+        run(
+            Command::new(&py)
+                .arg(repo().join("tools/blender/test_export/engine_render.py"))
+                .arg(&vdb)
+                .arg(&out_dir)
+                .arg("catcher")
+                .env("VDBPHOTON", BIN)
+                .env("TMPDIR", &temp),
+            "engine_render.py catcher",
+        ),
+        "catcher",
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find_map(|l| l.strip_prefix("ENGINE "))
+        .unwrap_or_else(|| panic!("no ENGINE line:\n{text}"));
+    let found: serde_json::Value = serde_json::from_str(line).unwrap();
+    assert_eq!(
+        found["saved"],
+        true,
+        "F12 saved no image (Blender's report: {}):\n{text}\n{}",
+        found["error"],
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cli = same_as_command_line(
+        &found,
+        &out_dir.join("catcher.exr"),
+        &out_dir.join("cli.exr"),
+        &[
+            ("R", "Combined.R"),
+            ("A", "Combined.A"),
+            ("shadow_catcher.R", "Shadow Catcher.R"),
+            ("shadow_catcher.G", "Shadow Catcher.G"),
+            ("shadow_catcher.B", "Shadow Catcher.B"),
+        ],
+    );
+    // The ground catches the cloud's shadow: the pass is below 1 somewhere.
+    assert!(
+        cli["shadow_catcher.R"]
+            .iter()
+            .any(|&b| f32::from_bits(b) < 0.99),
+        "no shadow in the Shadow Catcher pass"
+    );
 }

@@ -53,6 +53,18 @@ CLI):
              heat x 2) instead. A sequence or cache whose file number is not
              the frame gets frame_offset (vdbphoton reads file frame +
              frame_offset).
+  [[mesh]]   every instance Blender renders as a surface (meshes with
+             their modifiers, collection, Geometry Nodes and particle
+             instances, linked duplicates; curves, surfaces, metaballs and
+             text as the mesh Blender evaluates them into), from the render
+             depsgraph's object_instances at the current frame: `file` (a
+             binary PLY in '<scene stem>_meshes/' beside the scene file,
+             one per distinct mesh, object space), `name`, `transform`
+             (matrix_world), `holdout`, `shadow_catcher` and `visibility`
+             (the ray types that are off) as Cycles takes them (see
+             mesh_instances()). An animated mesh in a sequence is warned
+             about (exported as at the current frame).
+  [render] film_transparent = Film > Transparent (written when on).
 
 Warnings go to stderr as `vdbphoton_export: warning: ...`, each naming the
 object, material and node concerned. Fatal problems (no camera, nothing
@@ -74,7 +86,7 @@ file, so the exported transform is
 bl_info = {
     "name": "vdbphoton",
     "author": "vdbphoton",
-    "version": (1, 1, 0),
+    "version": (1, 2, 0),
     "blender": (3, 4, 0),
     "location": "Render Properties > Render Engine > vdbphoton; "
                 "File > Export > vdbphoton scene (.toml)",
@@ -88,6 +100,7 @@ import os
 import re
 import struct
 import sys
+import time
 
 import bpy
 from mathutils import Matrix, Vector
@@ -158,7 +171,7 @@ def toml_value(v):
 def to_toml(doc):
     """doc: {'header': [comment lines], 'render': {}, 'camera': {},
     'light': [{}], 'environment': {} | None, 'volume': [{'_comment': str,
-    ..., 'material': {}}]}"""
+    ..., 'material': {}}], 'mesh': [{'_comment': str, 'file': ..., ...}]}"""
     lines = [f'# {c}' for c in doc['header']]
 
     def table(name, t):
@@ -194,6 +207,14 @@ def to_toml(doc):
         lines.append('[volume.material]')
         for k, x in v['material'].items():
             lines.append(f'{k} = {toml_value(x)}')
+    for m in doc.get('mesh', []):
+        lines.append('')
+        if m.get('_comment'):
+            lines.append(f"# {m['_comment']}")
+        lines.append('[[mesh]]')
+        for k, x in m.items():
+            if not k.startswith('_'):
+                lines.append(f'{k} = {toml_value(x)}')
     return '\n'.join(lines) + '\n'
 
 
@@ -284,9 +305,17 @@ def pattern_path(pattern, frame):
 class Exporter:
     def __init__(self, scene, view_layer=None, frames=None, output=None, preview=None,
                  no_preview=False, cache_temperature=False, warn=None, blend_path=None,
-                 fluid_velocity='blender'):
+                 fluid_velocity='blender', depsgraph=None, scene_path=None):
         self.scene = scene
         self.view_layer = view_layer or scene.view_layers[0]
+        # The render depsgraph (the engine's), or None: the exporter makes
+        # one when there are meshes (render_depsgraph()).
+        self.depsgraph = depsgraph
+        # Where the scene file goes: its meshes go into '<stem>_meshes/'
+        # beside it (None: meshes are not written, as for a dry run).
+        self.scene_path = scene_path
+        self.meshes = {}
+        self.checked = set()
         self.frames_arg = frames
         self.output_arg = output
         self.preview_arg = preview
@@ -397,6 +426,10 @@ class Exporter:
         out['output'] = output
         if not self.no_preview:
             out['preview'] = self.preview_arg or (output[:-4] + '.png')
+        if r.film_transparent:
+            # Film > Transparent: the world seen directly is in neither
+            # colour nor alpha (premultiplied RGBA).
+            out['film_transparent'] = True
         vs = sc.view_settings
         if vs.exposure != 0.0:
             out['exposure'] = g7(vs.exposure)
@@ -1134,6 +1167,7 @@ class Exporter:
         if not doc['volume']:
             raise ExportError(f"nothing to export: scene '{sc.name}' has no Volume object or "
                               "smoke domain that could be exported")
+        doc['mesh'] = self.export_meshes(objects)
         if not self.frames_arg and not any('#' in v['file'] or '{frame' in v['file']
                                            for v in doc['volume']):
             # A still (every volume one file): every frame of the range is
@@ -1145,36 +1179,421 @@ class Exporter:
         return doc
 
     def check_other(self, o):
-        """Objects Blender renders that vdbphoton does not: warned about."""
+        """Objects Blender renders that are neither volumes nor meshes:
+        warned about. Meshes (and curves, surfaces, metaballs, text) are
+        exported by export_meshes(), but one whose materials are volumes
+        alone is a homogeneous volume in Blender, not a surface."""
         if o.type in ('CAMERA', 'LIGHT', 'EMPTY', 'ARMATURE', 'LATTICE', 'SPEAKER',
                       'LIGHT_PROBE', 'LIGHTPROBE'):
-            if o.type == 'EMPTY' and o.instance_type == 'COLLECTION' and o.instance_collection:
-                self.warn(f"object '{o.name}' instances collection "
-                          f"'{o.instance_collection.name}'; instances are not exported")
             return
-        kind = {'MESH': 'mesh', 'META': 'metaball', 'CURVE': 'curve', 'SURFACE': 'surface',
-                'FONT': 'text', 'CURVES': 'hair curves', 'POINTCLOUD': 'point cloud',
-                'GPENCIL': 'grease pencil', 'GREASEPENCIL': 'grease pencil'}.get(o.type, o.type)
+        kind = OBJECT_KINDS.get(o.type, o.type)
         role = ''
         for mod in getattr(o, 'modifiers', []):
             if mod.type == 'FLUID' and mod.fluid_type in ('FLOW', 'EFFECTOR'):
                 role = f' (fluid {mod.fluid_type.lower()})'
-        vol_nodes = []
-        for s in getattr(o, 'material_slots', []):
-            m = s.material
-            if m is None or m.node_tree is None:
+        if o.type in SURFACE_TYPES:
+            self.check_materials(o, kind, role)
+            return
+        self.warn(f"{kind} object '{o.name}'{role} is rendered by Blender, but vdbphoton renders "
+                  "only volumes and meshes; not exported")
+
+    def check_materials(self, o, kind, role=''):
+        """What Cycles renders of geometry object `o` by its materials:
+        'surface', 'holdout' (every surface a Holdout shader), 'volume' (only
+        volume shaders: a homogeneous volume, warned about) or 'none' (no
+        shader at all: nothing). Warns once per object."""
+        surfaces, holdouts, volumes = 0, 0, []
+        slots = [s.material for s in getattr(o, 'material_slots', [])]
+        if not slots or any(m is None for m in slots):
+            surfaces += 1  # Blender's default surface
+        for m in slots:
+            if m is None:
                 continue
-            for n in m.node_tree.nodes:
-                if n.bl_idname == 'ShaderNodeOutputMaterial' and n.is_active_output and \
-                        n.inputs['Volume'].is_linked:
-                    vol_nodes.append((m.name, follow(n.inputs['Volume']).name))
-        for mname, nname in vol_nodes:
-            self.warn(f"{kind} object '{o.name}'{role}: material '{mname}' node '{nname}' fills "
-                      f"the {kind} with a homogeneous volume, which vdbphoton does not support; "
-                      "not exported")
-        if not vol_nodes:
-            self.warn(f"{kind} object '{o.name}'{role} is rendered by Blender as a surface; "
-                      "vdbphoton renders only volumes; not exported")
+            nt = m.node_tree if uses_nodes(m) else None
+            if nt is None:
+                surfaces += 1
+                continue
+            outs = [n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
+            act = [n for n in outs if n.is_active_output and n.target in ('ALL', 'CYCLES')] or \
+                  [n for n in outs if n.is_active_output] or outs
+            if not act:
+                continue
+            if act[0].inputs['Surface'].is_linked:
+                surfaces += 1
+                if follow(act[0].inputs['Surface']).bl_idname == 'ShaderNodeHoldout':
+                    holdouts += 1
+            if act[0].inputs['Volume'].is_linked:
+                volumes.append((m.name, follow(act[0].inputs['Volume']).name))
+        key = o.original.name_full if o.original is not None else o.name_full
+        first = key not in self.checked
+        self.checked.add(key)
+        name = o.original.name if o.original is not None else o.name
+        if first:
+            for mname, nname in volumes:
+                if surfaces:
+                    self.warn(f"{kind} object '{name}'{role}: material '{mname}' node '{nname}' "
+                              f"fills the {kind} with a homogeneous volume, which vdbphoton "
+                              "does not support; only its surface is exported (as a mesh)")
+                else:
+                    self.warn(f"{kind} object '{name}'{role}: material '{mname}' node '{nname}' "
+                              f"fills the {kind} with a homogeneous volume, which vdbphoton "
+                              "does not support; not exported")
+        if not surfaces:
+            return 'volume' if volumes else 'none'
+        return 'holdout' if holdouts == surfaces else 'surface'
+
+    # -- meshes
+
+    def needs_meshes(self, objects):
+        """Whether anything among the rendered objects may make a mesh (so
+        that the scene must be evaluated): geometry, instancers, particle
+        systems, Geometry Nodes."""
+        for o in objects:
+            if o.type in ('CAMERA', 'LIGHT') or invisible_to_rays(o) or is_fluid_domain(o):
+                continue
+            if o.type in SURFACE_TYPES or o.instance_type != 'NONE':
+                return True
+            if any(m.type in ('NODES', 'PARTICLE_SYSTEM') for m in getattr(o, 'modifiers', [])):
+                return True
+        return False
+
+    def render_depsgraph(self, work):
+        """Calls work(depsgraph) with the scene evaluated as Blender renders
+        it (render visibility, modifiers' render settings, the render levels
+        of subdivision) at the current frame. Blender's Python has no way to
+        make a render depsgraph but a render, so this renders the view layer
+        with a helper engine that draws nothing (Blender's Render Result
+        image is then that empty render). If that fails, the viewport's
+        depsgraph, with a warning."""
+        sc = self.scene
+        result = {}
+        layer = self.view_layer.name
+
+        class EvalEngine(bpy.types.RenderEngine):
+            bl_idname = 'VDBPHOTON_EXPORT_EVAL'
+            bl_label = 'vdbphoton export (evaluation)'
+            bl_use_postprocess = False
+
+            def render(self, depsgraph):
+                if 'done' in result or depsgraph.view_layer_eval.name != layer:
+                    return
+                result['done'] = True
+                try:
+                    result['value'] = work(depsgraph)
+                except Exception as e:  # noqa: BLE001 (handed back to the exporter)
+                    result['error'] = e
+
+        engine = sc.render.engine
+        try:
+            bpy.utils.register_class(EvalEngine)
+        except (RuntimeError, ValueError):
+            pass
+        try:
+            sc.render.engine = EvalEngine.bl_idname
+            bpy.ops.render.render(layer=layer, scene=sc.name)
+        except (RuntimeError, TypeError) as e:
+            result.setdefault('failed', str(e).strip().splitlines()[-1] if str(e).strip()
+                              else type(e).__name__)
+        finally:
+            sc.render.engine = engine
+            try:
+                bpy.utils.unregister_class(EvalEngine)
+            except RuntimeError:
+                pass
+        if 'error' in result:
+            raise result['error']
+        if 'done' in result:
+            return result['value']
+        why = result.get('failed', 'the render pipeline did not run (a sequencer strip?)')
+        self.warn(f"meshes: the scene could not be evaluated as Blender renders it ({why}); "
+                  "they are exported as the viewport shows them (viewport visibility and "
+                  "modifier levels)")
+        try:
+            dg = bpy.context.evaluated_depsgraph_get() if bpy.context.scene == sc else None
+        except AttributeError:
+            dg = None
+        dg = dg or self.view_layer.depsgraph
+        return work(dg)
+
+    def export_meshes(self, objects):
+        """[[mesh]] entries for every geometry instance Blender renders as a
+        surface (meshes, curves, surfaces, metaballs, text; modifiers,
+        collection instances, Geometry Nodes and particle instances
+        included), from the render depsgraph. Their triangles are kept in
+        self.meshes until write_meshes()."""
+        if not self.needs_meshes(objects):
+            return []
+        t0 = time.time()
+        if self.depsgraph is not None:
+            found = self.mesh_instances(self.depsgraph)
+        else:
+            found = self.render_depsgraph(self.mesh_instances)
+        if found:
+            keys = {f['key'] for f in found}
+            tris = sum(len(self.meshes[k]['tri']) for k in keys)
+            self.note(f"meshes: {len(found)} instance{'s' if len(found) != 1 else ''} of "
+                      f"{len(keys)} distinct mesh{'es' if len(keys) != 1 else ''} ({tris} "
+                      f"triangles) read in {time.time() - t0:.2f} s")
+        return self.mesh_entries(found)
+
+    def mesh_instances(self, depsgraph):
+        """What Cycles renders as a surface: every instance of the depsgraph
+        whose geometry is a mesh (Blender 5 evaluates curves, surfaces,
+        metaballs and text into a mesh instance of their own object, which
+        is what Cycles renders; where Blender does not, the object's
+        to_mesh()). Returns the instances (name, matrix, flags, the key of
+        their triangles in self.meshes). Flags as Cycles takes them
+        (intern/cycles/blender/object.cpp): holdout = the instancer's
+        holdout_get(view layer), or the object's own when it is not an
+        instance (Object > Visibility > Holdout, or in a collection set to
+        Holdout in the view layer; not in its child collections: measured in
+        Cycles 5.0.1); shadow catcher = the object's or its instancer's; ray
+        visibility = the object's and its instancer's; in an Indirect Only
+        collection, invisible to the camera."""
+        vl = depsgraph.view_layer_eval
+        found, curves, own = [], [], set()
+        told = set()
+        counts = {}
+        for inst in depsgraph.object_instances:
+            if not inst.show_self:
+                continue
+            ob = inst.object
+            is_inst = inst.is_instance
+            parent = inst.parent if is_inst else ob
+            orig = ob.original if ob.original is not None else ob
+            if ob.type in CURVE_TYPES and not is_inst:
+                curves.append(ob)
+                continue
+            if ob.type != 'MESH' or not isinstance(ob.data, bpy.types.Mesh):
+                # (Objects of the view layer are warned about by
+                # check_other; instances of them here.)
+                if ob.type in ('CURVES', 'POINTCLOUD', 'GPENCIL', 'GREASEPENCIL') and \
+                        is_inst and orig.name_full not in told:
+                    told.add(orig.name_full)
+                    by = f" (instanced by '{parent.name}')"
+                    self.warn(f"{OBJECT_KINDS.get(ob.type, ob.type)} object '{orig.name}'{by} "
+                              "is rendered by Blender, but vdbphoton renders only volumes and "
+                              "meshes; not exported")
+                continue
+            if is_inst and orig == parent.original:
+                # A curve's (text's, ...) own surface.
+                own.add(orig.name_full)
+                is_inst = False
+            if is_fluid_domain(orig):
+                continue
+            kind = OBJECT_KINDS.get(orig.type, orig.type)
+            if is_inst:
+                base = f'{parent.name}/{orig.name}'
+                counts[base] = counts.get(base, 0) + 1
+                name = f'{base} #{counts[base]}'
+                what = f"{kind} '{orig.name}' instanced by '{parent.name}'"
+            else:
+                name = orig.name
+                what = f"{kind} object '{orig.name}'"
+            self.add_instance(found, ob, parent, orig, vl, inst.matrix_world, name, what, kind)
+        for ob in curves:
+            orig = ob.original if ob.original is not None else ob
+            if orig.name_full in own:
+                continue
+            kind = OBJECT_KINDS.get(ob.type, ob.type)
+            self.add_instance(found, ob, ob, orig, vl, ob.matrix_world, orig.name,
+                              f"{kind} object '{orig.name}'", kind)
+        return found
+
+    def add_instance(self, found, ob, parent, orig, vl, matrix, name, what, kind):
+        """Appends instance `ob` (evaluated; `parent` its instancer, or `ob`)
+        to `found` unless Cycles renders nothing of it."""
+        vis = {k: bool(getattr(ob, 'visible_' + k, True)) and
+               bool(getattr(parent, 'visible_' + k, True)) for k in VISIBILITY_KEYS}
+        holdout = bool(parent.holdout_get(view_layer=vl))
+        if not holdout and parent.indirect_only_get(view_layer=vl):
+            vis['camera'] = False
+        if not any(vis.values()):
+            return  # Cycles does not render it at all
+        shading = self.check_materials(ob, kind)
+        if shading in ('volume', 'none'):
+            return
+        if ob.type == 'MESH':
+            key = ('data', ob.data.as_pointer())
+        else:
+            key = ('object', orig.as_pointer())
+        if key not in self.meshes:
+            self.meshes[key] = self.triangles(ob, what, orig.name)
+        if self.meshes[key] is None:
+            return
+        m = matrix.copy()
+        if not all(math.isfinite(m[i][j]) for i in range(4) for j in range(4)) or \
+                abs(m.to_3x3().determinant()) < 1e-30:
+            self.warn(f"{what}: its transform is not invertible (a scale of 0?) or not "
+                      "finite; not exported")
+            return
+        found.append({'key': key, 'name': name, 'what': what, 'matrix': m,
+                      'holdout': holdout or shading == 'holdout',
+                      'shadow_catcher': bool(ob.is_shadow_catcher or parent.is_shadow_catcher),
+                      'visibility': vis, 'objects': (orig, parent.original or parent)})
+
+    def triangles(self, ob, what, label):
+        """{'co': float32 (n, 3), 'tri': int32 (m, 3), 'label'} of evaluated
+        object `ob` in its object space (loop triangles, read in bulk), or
+        None (warned about) when there is nothing to render."""
+        import numpy as np
+        me, temporary = None, False
+        try:
+            if ob.type == 'MESH':
+                me = ob.data
+            else:
+                me = ob.to_mesh()
+                temporary = True
+        except RuntimeError as e:
+            self.warn(f"{what}: Blender cannot make a mesh of it ({e}); not exported")
+            return None
+        try:
+            if me is None or len(me.polygons) == 0:
+                if ob.type in CURVE_TYPES or (me is not None and len(me.vertices) == 0 and any(
+                        m.type == 'NODES' for m in getattr(ob.original, 'modifiers', []))):
+                    # A curve without bevel or extrusion renders nothing,
+                    # only a metaball family's base object holds its
+                    # surface, and Geometry Nodes that make only instances
+                    # leave the object's own mesh empty.
+                    return None
+                self.warn(f"{what} has no faces (nothing to render); not exported")
+                return None
+            co = np.empty(len(me.vertices) * 3, dtype=np.float32)
+            me.vertices.foreach_get('co', co)
+            tri = np.empty(len(me.loop_triangles) * 3, dtype=np.int32)
+            me.loop_triangles.foreach_get('vertices', tri)
+        finally:
+            if temporary:
+                ob.to_mesh_clear()
+        co = co.reshape(-1, 3)
+        tri = tri.reshape(-1, 3)
+        bad = ~np.isfinite(co).all(axis=1)
+        repeated = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
+        nonfinite = bad[tri].any(axis=1)
+        if bad.any():
+            co[bad] = 0.0
+            nv, nt = int(bad.sum()), int(nonfinite.sum())
+            self.warn(f"{what}: {nv} vert{'ices are' if nv != 1 else 'ex is'} not a finite "
+                      f"number; the {nt} triangle{'s' if nt != 1 else ''} using "
+                      f"{'them' if nv != 1 else 'it'} {'are' if nt != 1 else 'is'} left out")
+        if (repeated & ~nonfinite).any():
+            n = int((repeated & ~nonfinite).sum())
+            self.warn(f"{what}: {n} triangle{'s' if n != 1 else ''} with a repeated vertex "
+                      "(no area) left out")
+        if (repeated | nonfinite).any():
+            tri = tri[~(repeated | nonfinite)]
+        if len(tri) == 0:
+            self.warn(f"{what} has no triangles left to render; not exported")
+            return None
+        return {'co': np.ascontiguousarray(co), 'tri': np.ascontiguousarray(tri),
+                'label': label}
+
+    def mesh_entries(self, found):
+        """The [[mesh]] entries (one per instance; instances of one mesh
+        share its file). More than MAX_MESH_ENTRIES instances (a Geometry
+        Nodes scatter, say) are merged, in world space, into one mesh per
+        combination of flags, so that the scene file stays small."""
+        import numpy as np
+        if len(self.frames) > 1:
+            self.warn_animated(found)
+        if found and self.scene.render.use_motion_blur:
+            self.note("meshes are rendered without motion blur (vdbphoton does not move them)")
+        if len(found) > MAX_MESH_ENTRIES:
+            groups = {}
+            for f in found:
+                flags = (f['holdout'], f['shadow_catcher'], tuple(f['visibility'].values()))
+                groups.setdefault(flags, []).append(f)
+            merged_meshes = {}
+            out = []
+            for k, (flags, fs) in enumerate(groups.items()):
+                ntri = sum(len(self.meshes[f['key']]['tri']) for f in fs)
+                if ntri > MAX_MERGED_TRIANGLES:
+                    raise ExportError(f"{len(found)} mesh instances with {ntri} triangles: too "
+                                      f"many to merge into one mesh (at most "
+                                      f"{MAX_MERGED_TRIANGLES}); realize fewer instances")
+                cos, tris, base = [], [], 0
+                for f in fs:
+                    d = self.meshes[f['key']]
+                    m = np.array(f['matrix'], dtype=np.float64)
+                    cos.append((d['co'].astype(np.float64) @ m[:3, :3].T + m[:3, 3])
+                               .astype(np.float32))
+                    tris.append(d['tri'] + base)
+                    base += len(d['co'])
+                key = ('merged', k)
+                merged_meshes[key] = {'co': np.concatenate(cos), 'tri': np.concatenate(tris),
+                                      'label': f'merged_{k + 1}'}
+                f0 = fs[0]
+                out.append({'key': key, 'name': f"{len(fs)} instances ({f0['name']}, ...)",
+                            'what': f"{len(fs)} instances, merged", 'matrix': Matrix.Identity(4),
+                            'holdout': f0['holdout'], 'shadow_catcher': f0['shadow_catcher'],
+                            'visibility': f0['visibility'], 'objects': ()})
+            self.warn(f"{len(found)} mesh instances: merged into {len(out)} world-space "
+                      f"mesh{'es' if len(out) != 1 else ''} (one per combination of holdout, "
+                      f"shadow catcher and ray visibility), since more than {MAX_MESH_ENTRIES} "
+                      "[[mesh]] entries would make the scene file too large")
+            self.meshes = merged_meshes
+            found = out
+        entries = []
+        for f in found:
+            e = {'_comment': f"Blender {f['what']}", '_key': f['key'], 'file': None,
+                 'name': f['name'],
+                 'transform': {'matrix': matrix_rows(f['matrix'])},
+                 'holdout': f['holdout'], 'shadow_catcher': f['shadow_catcher']}
+            off = {k: False for k, v in f['visibility'].items() if not v}
+            if off:
+                e['visibility'] = off
+            entries.append(e)
+        used = {e['_key'] for e in entries}
+        self.meshes = {k: v for k, v in self.meshes.items() if k in used and v is not None}
+        return entries
+
+    def warn_animated(self, found):
+        """A warning per animated object among the meshes' objects: their
+        meshes are exported as they are at the current frame, for every
+        frame."""
+        told = set()
+        for f in found:
+            for o in f['objects']:
+                if o.name_full in told or not is_animated(o):
+                    continue
+                told.add(o.name_full)
+                self.warn(f"object '{o.name}' is animated, but its mesh is exported as it is at "
+                          f"frame {self.scene.frame_current} for every frame of "
+                          f"{compress_frames(self.frames)} (vdbphoton does not move meshes over "
+                          "a sequence; export a frame at a time for that)")
+
+    def write_meshes(self, entries, toml_path):
+        """Writes each distinct mesh once as a binary PLY into
+        '<stem>_meshes/' beside the scene file and fills the entries'
+        `file` (relative to the scene file); returns the file names."""
+        if not entries:
+            return set()
+        toml_path = os.path.abspath(toml_path)
+        stem = os.path.splitext(os.path.basename(toml_path))[0]
+        folder_name = f'{stem}_meshes'
+        folder = os.path.join(os.path.dirname(toml_path), folder_name)
+        try:
+            os.makedirs(folder, exist_ok=True)
+        except OSError as e:
+            raise ExportError(f'cannot make the mesh folder {folder}: {e.strerror or e}') from None
+        t0 = time.time()
+        names, files = set(), {}
+        for e in entries:
+            k = e['_key']
+            if k not in files:
+                d = self.meshes[k]
+                base = re.sub(r'[^A-Za-z0-9._-]+', '_', d['label']).strip('._') or 'mesh'
+                name, n = base, 1
+                while name.lower() in names:
+                    n += 1
+                    name = f'{base}_{n}'
+                names.add(name.lower())
+                write_ply(os.path.join(folder, name + '.ply'), d['co'], d['tri'])
+                files[k] = f'{folder_name}/{name}.ply'
+            e['file'] = files[k]
+        self.note(f"meshes: {len(files)} PLY file{'s' if len(files) != 1 else ''} written to "
+                  f"{folder} in {time.time() - t0:.2f} s")
+        return {f.rsplit('/', 1)[1] for f in files.values()}
 
 
 class MaterialContext:
@@ -1255,6 +1674,100 @@ class MaterialContext:
 
 RAY_VISIBILITY = ('visible_camera', 'visible_diffuse', 'visible_glossy', 'visible_transmission',
                   'visible_volume_scatter', 'visible_shadow')
+
+
+# Object types whose evaluated geometry Cycles renders as a surface, which
+# the exporter writes as meshes (curves, surfaces, metaballs and text through
+# Object.to_mesh()).
+SURFACE_TYPES = ('MESH', 'CURVE', 'SURFACE', 'META', 'FONT')
+CURVE_TYPES = ('CURVE', 'SURFACE', 'META', 'FONT')
+OBJECT_KINDS = {'MESH': 'mesh', 'META': 'metaball', 'CURVE': 'curve', 'SURFACE': 'surface',
+                'FONT': 'text', 'CURVES': 'hair curves', 'POINTCLOUD': 'point cloud',
+                'GPENCIL': 'grease pencil', 'GREASEPENCIL': 'grease pencil'}
+# The [[mesh]] visibility keys, Blender's Object.visible_<key>.
+VISIBILITY_KEYS = ('camera', 'shadow', 'diffuse', 'glossy', 'transmission', 'volume_scatter')
+# More mesh instances than this are merged into world-space meshes: each
+# [[mesh]] entry takes about 400 bytes and vdbphoton reads scene files of
+# at most 1 MiB.
+MAX_MESH_ENTRIES = 1000
+MAX_MERGED_TRIANGLES = 200_000_000
+# Modifiers that make a mesh change over time by themselves.
+TIME_MODIFIERS = ('CLOTH', 'SOFT_BODY', 'OCEAN', 'EXPLODE', 'DYNAMIC_PAINT', 'MESH_CACHE',
+                  'MESH_SEQUENCE_CACHE', 'WAVE', 'COLLISION', 'PARTICLE_SYSTEM')
+
+
+def is_fluid_domain(o):
+    """A fluid domain Blender renders as a domain (the exporter's volumes,
+    or a liquid it warns about), not as its mesh."""
+    return any(m.type == 'FLUID' and m.fluid_type == 'DOMAIN' and m.show_render
+               for m in getattr(o, 'modifiers', []))
+
+
+def has_animation(idblock):
+    ad = getattr(idblock, 'animation_data', None)
+    return ad is not None and (ad.action is not None or len(ad.drivers) > 0 or
+                               len(ad.nla_tracks) > 0)
+
+
+def node_group_uses_time(ng, seen=None):
+    seen = set() if seen is None else seen
+    if ng is None or ng.name_full in seen:
+        return False
+    seen.add(ng.name_full)
+    if has_animation(ng):
+        return True
+    for n in ng.nodes:
+        if n.bl_idname in ('GeometryNodeInputSceneTime', 'GeometryNodeSimulationInput',
+                           'GeometryNodeSimulationOutput'):
+            return True
+        if getattr(n, 'node_tree', None) is not None and node_group_uses_time(n.node_tree, seen):
+            return True
+    return False
+
+
+def is_animated(o):
+    """Whether object `o` (or a parent) may move or change over frames:
+    animation or drivers on it, its data or shape keys, a time-dependent
+    modifier, or Geometry Nodes reading the time."""
+    while o is not None:
+        if has_animation(o) or has_animation(getattr(o, 'data', None)):
+            return True
+        keys = getattr(getattr(o, 'data', None), 'shape_keys', None)
+        if keys is not None and has_animation(keys):
+            return True
+        for m in getattr(o, 'modifiers', []):
+            if m.type in TIME_MODIFIERS or (m.type == 'NODES' and
+                                            node_group_uses_time(m.node_group)):
+                return True
+        o = o.parent
+    return False
+
+
+def write_ply(path, co, tri):
+    """A binary little-endian PLY (vertex float x y z; face list uchar int
+    vertex_indices) written atomically; raises ExportError."""
+    import numpy as np
+    header = ('ply\nformat binary_little_endian 1.0\ncomment vdbphoton_export.py\n'
+              f'element vertex {len(co)}\nproperty float x\nproperty float y\n'
+              f'property float z\nelement face {len(tri)}\n'
+              'property list uchar int vertex_indices\nend_header\n')
+    faces = np.empty(len(tri), dtype=np.dtype([('n', 'u1'), ('v', '<i4', (3,))]))
+    faces['n'] = 3
+    faces['v'] = tri
+    d = os.path.dirname(path)
+    tmp = os.path.join(d, f'.{os.path.basename(path)}.{os.getpid()}.tmp')
+    try:
+        with open(tmp, 'wb') as f:
+            f.write(header.encode('ascii'))
+            f.write(np.ascontiguousarray(co, dtype='<f4').tobytes())
+            f.write(faces.tobytes())
+        os.replace(tmp, path)
+    except OSError as e:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise ExportError(f'cannot write {path}: {e.strerror or e}') from None
 
 
 def invisible_to_rays(o):
@@ -1405,18 +1918,48 @@ def write_scene(path, text):
 
 
 def export_scene(path, scene=None, view_layer=None, warn=None, **kw):
-    """Exports `scene` (default: the context's) to `path`; returns the
-    Exporter (its .warnings). Raises ExportError."""
+    """Exports `scene` (default: the context's) to `path`, its meshes as PLY
+    files into '<stem>_meshes/' beside it; returns the Exporter (its
+    .warnings). `depsgraph`: the render depsgraph when there is one (the
+    render engine's). Raises ExportError."""
     scene = scene or bpy.context.scene
     if view_layer is None:
         try:
             view_layer = bpy.context.view_layer if bpy.context.scene == scene else None
         except AttributeError:
             view_layer = None
-    ex = Exporter(scene, view_layer=view_layer, warn=warn, **kw)
+    d = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(d):
+        raise ExportError(f"cannot write {os.path.abspath(path)}: folder {d} does not exist")
+    if kw.get('depsgraph') is None:
+        # Objects made or moved by a script have their matrix_world once
+        # the view layer is evaluated.
+        try:
+            (view_layer or scene.view_layers[0]).update()
+        except (RuntimeError, AttributeError):
+            pass
+    ex = Exporter(scene, view_layer=view_layer, warn=warn, scene_path=path, **kw)
     doc = ex.export()
+    written = ex.write_meshes(doc['mesh'], path)
     write_scene(path, to_toml(doc))
+    remove_stale_meshes(path, written)
     return ex
+
+
+def remove_stale_meshes(path, written):
+    """Removes the .ply files of an earlier export from the scene's mesh
+    folder ('<stem>_meshes/', which belongs to the scene file) that this
+    export did not write."""
+    stem = os.path.splitext(os.path.basename(path))[0]
+    folder = os.path.join(os.path.dirname(os.path.abspath(path)), f'{stem}_meshes')
+    if not os.path.isdir(folder):
+        return
+    for name in os.listdir(folder):
+        if name.endswith('.ply') and name not in written:
+            try:
+                os.unlink(os.path.join(folder, name))
+            except OSError:
+                pass
 
 
 # ------------------------------------------------------------------ add-on
@@ -1492,6 +2035,47 @@ BINARY_VERSION = (0, 2)
 AOV_PASSES = [('Direct', 3, 'RGB', 'direct'), ('Indirect', 3, 'RGB', 'indirect'),
               ('Emission', 3, 'RGB', 'emission'), ('Transmittance', 1, 'X', 'transmittance')]
 DENOISE_PASSES = [('Noisy Image', 4, 'RGBA', 'noisy'), ('Denoising Albedo', 3, 'RGB', 'albedo')]
+# Cycles' Shadow Catcher pass (its add-on's engine.py names it so): the EXR's
+# layer `shadow_catcher`, 1 where no catcher is seen; composite = Combined
+# over (background x Shadow Catcher).
+CATCHER_PASS = ('Shadow Catcher', 3, 'RGB', 'shadow_catcher')
+
+
+def scene_has_shadow_catcher(scene):
+    """Whether an object of `scene`, or of a collection its objects
+    instance, is a shadow catcher (Object > Visibility > Mask)."""
+    seen = set()
+
+    def walk(objects):
+        for o in objects:
+            # (A light's flag reads True in Blender 5.0.1; only geometry and
+            # instancers count.)
+            if o.type in SURFACE_TYPES + ('EMPTY',) and getattr(o, 'is_shadow_catcher', False):
+                return True
+            c = o.instance_collection if o.instance_type == 'COLLECTION' else None
+            if c is not None and c.name_full not in seen:
+                seen.add(c.name_full)
+                if walk(c.all_objects):
+                    return True
+        return False
+
+    return walk(scene.objects)
+
+
+def wants_shadow_catcher(scene, view_layer):
+    """The Shadow Catcher pass is registered as Cycles registers it, when
+    the view layer asks for it (View Layer Properties > Passes > Shadow
+    Catcher), and whenever the scene has a shadow catcher."""
+    cy = getattr(view_layer, 'cycles', None) if view_layer is not None else None
+    if cy is not None and getattr(cy, 'use_pass_shadow_catcher', False):
+        return True
+    return scene is not None and scene_has_shadow_catcher(scene)
+
+
+def engine_passes(scene, view_layer, denoise):
+    """The passes beside Combined, as update_render_passes registers them."""
+    return AOV_PASSES + (DENOISE_PASSES if denoise else []) + \
+        ([CATCHER_PASS] if wants_shadow_catcher(scene, view_layer) else [])
 
 
 def read_exr_channels(path):
@@ -1653,12 +2237,10 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, 'Combined', 4, 'RGBA', 'COLOR')
-        for name, n, chan, _ in AOV_PASSES:
+        denoise = scene is not None and scene.vdbphoton.denoise
+        for name, n, chan, _ in engine_passes(scene, renderlayer, denoise):
             self.register_pass(scene, renderlayer, name, n, chan,
                                'VALUE' if n == 1 else 'COLOR')
-        if scene is not None and scene.vdbphoton.denoise:
-            for name, n, chan, _ in DENOISE_PASSES:
-                self.register_pass(scene, renderlayer, name, n, chan, 'COLOR')
 
     def render(self, depsgraph):
         import tempfile
@@ -1692,7 +2274,7 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
         try:
             export_scene(scene_file, scene, depsgraph.view_layer,
                          warn=lambda kind, m: msgs.append((kind, m)),
-                         frames=str(frame), output=exr, no_preview=True)
+                         frames=str(frame), output=exr, no_preview=True, depsgraph=depsgraph)
         except (ExportError, OSError, ValueError) as e:
             self.report({'ERROR'}, f'vdbphoton: {e}')
             return
@@ -1702,7 +2284,7 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
                 self.report({'WARNING'}, f'vdbphoton: {m}')
         # The passes update_render_passes registered, in this view layer's
         # result (Blender calls render() once per view layer).
-        passes = AOV_PASSES + (DENOISE_PASSES if s.denoise else [])
+        passes = engine_passes(scene, depsgraph.view_layer, s.denoise)
         result = self.begin_result(0, 0, w, h, layer=layer)
         args = engine_command(exe, scene_file, exr, frame, s)
         if r.use_border:
@@ -1837,6 +2419,10 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
             names = [f'{exr_layer}.{c}' for c in ('RGBA'[:n] if n > 1 else 'Y')]
             if all(x in ch for x in names):
                 put(name, names)
+            elif exr_layer == 'shadow_catcher':
+                # No catcher in the render: 1 everywhere, Cycles' value
+                # where no catcher is seen.
+                layer.passes[name].rect.foreach_set(np.ones(rw * rh * n, dtype=np.float32))
 
 
 class RENDER_PT_vdbphoton(bpy.types.Panel):

@@ -19,6 +19,13 @@ CASE:
              missing: the error Blender's report gets
   broken     the binary is not vdbphoton (VDBPHOTON points at /bin/true)
   missing    the binary does not exist
+  catcherpass  the Shadow Catcher pass registered (or not) as Cycles
+             registers it (the view layer's Shadow Catcher pass, or a catcher
+             in the scene, also in an instanced collection); F12 with the
+             pass asked for and no catcher: OUT_DIR/nocatcher.exr
+  catcher    a shadow catcher ground and a holdout ball, film transparent:
+             F12 (OUT_DIR/catcher.exr, with the Shadow Catcher pass), the
+             scene as exported and the engine's command line
   cancel     Esc (the engine's test_break, through its stop_requested) 1.5 s
              into a long render: how long until the
              engine returned, and whether the process was gone
@@ -28,6 +35,7 @@ import json
 import os
 import sys
 import time
+from types import SimpleNamespace
 
 import bpy
 
@@ -144,7 +152,6 @@ def main(vdb, out_dir, case):
         found['earlier_kept'] = open(path, 'rb').read() == first
         # The panel: shown for this engine only, with the settings that
         # matter (drawn into a layout that records what it is given).
-        from types import SimpleNamespace
         panel = vdbphoton_export.RENDER_PT_vdbphoton
         drawn = []
 
@@ -212,6 +219,73 @@ def main(vdb, out_dir, case):
         sc.render.filepath = os.path.join(out_dir, 'anim_')
         bpy.ops.render.render(animation=True)
         found['files'] = sorted(f for f in os.listdir(out_dir) if f.startswith('anim_'))
+    elif case == 'catcherpass':
+        # The Shadow Catcher pass is registered as Cycles registers it: when
+        # the view layer asks for it, and (ours) whenever the scene has a
+        # catcher; without a catcher in the render it is 1 everywhere.
+        engine = vdbphoton_export.VdbphotonRenderEngine
+        vl = sc.view_layers[0]
+
+        def registered():
+            names = []
+            rec = SimpleNamespace(register_pass=lambda scene, layer, name, *a: names.append(name))
+            engine.update_render_passes(rec, sc, vl)
+            return names
+
+        found['registered'] = {'plain': registered()}
+        vl.cycles.use_pass_shadow_catcher = True
+        found['registered']['view_layer_pass'] = registered()
+        vl.cycles.use_pass_shadow_catcher = False
+        plane = bpy.data.meshes.new('Ground')
+        plane.from_pydata([(-3, -3, -1), (3, -3, -1), (3, 3, -1), (-3, 3, -1)], [], [(0, 1, 2, 3)])
+        ground = bpy.data.objects.new('Ground', plane)
+        ground.is_shadow_catcher = True
+        holder = bpy.data.collections.new('Held')
+        holder.objects.link(ground)
+        inst = bpy.data.objects.new('Held instance', None)
+        inst.instance_type = 'COLLECTION'
+        inst.instance_collection = holder
+        sc.collection.objects.link(inst)
+        found['registered']['instanced_catcher'] = registered()
+        bpy.data.objects.remove(inst)
+        vl.cycles.use_pass_shadow_catcher = True
+        path = os.path.join(out_dir, 'nocatcher.exr')
+        sc.render.filepath = path
+        bpy.ops.render.render(write_still=True)
+        found['saved'] = os.path.isfile(path)
+    elif case == 'catcher':
+        # A ground plane as shadow catcher and a holdout ball in front of
+        # the cloud, film transparent: F12 shows vdbphoton's shadow_catcher
+        # layer as the Shadow Catcher pass.
+        plane = bpy.data.meshes.new('Ground')
+        plane.from_pydata([(-3, -3, -1), (3, -3, -1), (3, 3, -1), (-3, 3, -1)], [], [(0, 1, 2, 3)])
+        ground = bpy.data.objects.new('Ground', plane)
+        ground.is_shadow_catcher = True
+        sc.collection.objects.link(ground)
+        ball = bpy.data.meshes.new('Ball')
+        import bmesh
+        bm = bmesh.new()
+        bmesh.ops.create_uvsphere(bm, u_segments=16, v_segments=8, radius=0.3)
+        bm.to_mesh(ball)
+        bm.free()
+        bo = bpy.data.objects.new('Ball', ball)
+        bo.location = (0.3, -1.5, 0.3)
+        bo.is_holdout = True
+        sc.collection.objects.link(bo)
+        sc.render.film_transparent = True
+        path = os.path.join(out_dir, 'catcher.exr')
+        sc.render.filepath = path
+        try:
+            bpy.ops.render.render(write_still=True)
+        except RuntimeError as e:
+            found['error'] = str(e)
+        found['saved'] = os.path.isfile(path)
+        toml = os.path.join(out_dir, 'catcher.toml')
+        vdbphoton_export.export_scene(toml, sc, frames=str(sc.frame_current),
+                                      output=os.path.join(out_dir, 'cli.exr'), no_preview=True)
+        found['command'] = vdbphoton_export.engine_command(
+            os.environ['VDBPHOTON'], toml, os.path.join(out_dir, 'cli.exr'),
+            sc.frame_current, sc.vdbphoton)
     elif case in ('nocamera', 'novolume', 'missingvdb'):
         if case == 'nocamera':
             sc.camera = None
