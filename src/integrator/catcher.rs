@@ -46,7 +46,7 @@ pub fn estimate(
 ) -> CatcherSample {
     let n = hit.n;
     let mut out = CatcherSample::default();
-    let catcher_shadow = |f: &ObjectFlags| f.shadow_catcher && f.visibility.sees(RayKind::SHADOW);
+    let catcher = |f: &ObjectFlags| f.shadow_catcher;
     for light in &world.lights {
         let u = rng.next_vec2();
         let p = hit.spawn(n);
@@ -57,17 +57,17 @@ pub fn estimate(
         if cos <= 0.0 || ls.pdf <= 0.0 || ls.li.max_element() <= 0.0 {
             continue;
         }
-        if world
-            .shapes
-            .occluded_where(p, ls.wi, ls.dist, catcher_shadow)
-        {
-            continue;
-        }
         let e = ls.li * (cos * FRAC_1_PI / ls.pdf);
-        out.unshadowed += e;
-        if world.shapes.occluded(p, ls.wi, ls.dist, RayKind::SHADOW) {
+        // Unshadowed, only other catchers block the light: asked only
+        // when something does.
+        let shapes = &world.shapes;
+        if shapes.occluded(p, ls.wi, ls.dist, RayKind::SHADOW) {
+            if !shapes.occluded_where(p, ls.wi, ls.dist, RayKind::SHADOW, catcher) {
+                out.unshadowed += e;
+            }
             continue;
         }
+        out.unshadowed += e;
         let tr = tracking::transmittance(&world.media, &Ray::at_time(p, ls.wi, time), ls.dist, rng);
         out.shadowed += e * tr;
     }
@@ -75,10 +75,9 @@ pub fn estimate(
     let (t, b) = coordinate_system(n);
     let w = t * local.x + b * local.y + n * local.z;
     let p = hit.spawn(w);
-    let catcher_diffuse = |f: &ObjectFlags| f.shadow_catcher && f.visibility.sees(RayKind::DIFFUSE);
     if !world
         .shapes
-        .occluded_where(p, w, f32::INFINITY, catcher_diffuse)
+        .occluded_where(p, w, f32::INFINITY, RayKind::DIFFUSE, catcher)
     {
         out.unshadowed += world.environment.le(w);
     }

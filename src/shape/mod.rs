@@ -1,5 +1,5 @@
 //! Surfaces in the scene: every mesh's triangles placed in world space, in
-//! one bounding volume hierarchy (`obvhs`' compressed wide BVH, built by
+//! a bounding volume hierarchy per set of objects a kind of ray sees (`obvhs`' compressed wide BVH, built by
 //! PLOC: Meister & Bittner 2018, "Parallel Locally-Ordered Clustering for
 //! Bounding Volume Hierarchy Construction"; Ylitie, Karras & Laine 2017,
 //! "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
@@ -20,7 +20,8 @@
 //! not hit the triangle they left.
 
 use glam::{Vec3, Vec3A};
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::triangle::Triangle;
@@ -134,69 +135,41 @@ impl Hit {
     }
 }
 
-/// Every surface of a scene in one BVH.
-#[derive(Default)]
-pub struct Shapes {
-    objects: Vec<Object>,
-    /// The BVH (none without triangles).
-    bvh: Option<CwBvh>,
+/// The surfaces one kind of ray sees, in one BVH.
+struct Set {
+    bvh: CwBvh,
     /// Triangles in the BVH's leaf order.
     triangles: Vec<Triangle>,
     /// The object of each of `triangles`.
     object_of: Vec<u32>,
-    /// Whether any object catches shadows.
-    catcher: bool,
+    /// The box around every triangle, for a test before the traversal.
+    lo: Vec3A,
+    hi: Vec3A,
 }
 
-impl std::fmt::Debug for Shapes {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Shapes")
-            .field("objects", &self.objects)
-            .field("triangles", &self.triangles.len())
-            .finish()
-    }
-}
-
-/// Bytes per triangle that [`Shapes`] keeps (triangle, object index, BVH
-/// node share and index) and that its build takes at its peak beside them:
-/// measured on a 1 M-triangle mesh (`cargo bench --bench meshes`), for the
-/// memory check before a render.
-pub const BYTES_PER_TRIANGLE: u64 = 260;
-
-impl Shapes {
-    /// No surfaces.
-    pub fn empty() -> Shapes {
-        Shapes::default()
-    }
-
-    /// The objects and their world-space triangles, in one BVH.
-    pub fn new(parts: Vec<(Object, Vec<[Vec3; 3]>)>) -> Shapes {
-        let mut objects = Vec::with_capacity(parts.len());
-        let mut tris = Vec::new();
-        let mut owner = Vec::new();
-        for (i, (o, t)) in parts.into_iter().enumerate() {
-            tris.extend(t.iter().map(|v| Triangle {
-                v0: v[0].into(),
-                v1: v[1].into(),
-                v2: v[2].into(),
-            }));
-            owner.extend(std::iter::repeat_n(i as u32, t.len()));
-            objects.push(o);
-        }
-        let catcher = objects.iter().any(|o| o.flags.shadow_catcher);
-        if tris.is_empty() {
-            return Shapes {
-                objects,
-                catcher,
-                ..Shapes::default()
-            };
-        }
-        let bvh = build_cwbvh_from_tris(
-            &tris,
+impl Set {
+    fn new(tris: &[Triangle], owner: &[u32]) -> Set {
+        // Each triangle's box padded by a little more than float precision
+        // at its coordinates: a flat box (a ground plane's) seen edge-on or
+        // along an axis gives an empty interval to the traversal's node
+        // tests, and the ray would pass through it.
+        let boxes: Vec<Aabb> = tris
+            .iter()
+            .map(|t| {
+                let b = t.aabb();
+                let pad = 1e-6 * b.min.abs().max(b.max.abs()).max_element().max(1.0);
+                Aabb {
+                    min: b.min - Vec3A::splat(pad),
+                    max: b.max + Vec3A::splat(pad),
+                }
+            })
+            .collect();
+        let bvh = build_cwbvh(
+            &boxes,
             BvhBuildParams::medium_build(),
             &mut std::time::Duration::default(),
         );
-        let triangles = bvh
+        let triangles: Vec<Triangle> = bvh
             .primitive_indices
             .iter()
             .map(|&i| tris[i as usize])
@@ -206,19 +179,180 @@ impl Shapes {
             .iter()
             .map(|&i| owner[i as usize])
             .collect();
-        Shapes {
-            objects,
-            bvh: Some(bvh),
+        let (mut lo, mut hi) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+        for b in &boxes {
+            lo = lo.min(b.min);
+            hi = hi.max(b.max);
+        }
+        Set {
+            bvh,
             triangles,
             object_of,
+            lo,
+            hi,
+        }
+    }
+
+    /// Whether `o + t d` can meet the box for `t` in `(0, t_max)` (a slab
+    /// test, IEEE infinities for axis-parallel directions).
+    #[inline]
+    fn may_hit(&self, o: Vec3A, inv: Vec3A, t_max: f32) -> bool {
+        let a = (self.lo - o) * inv;
+        let b = (self.hi - o) * inv;
+        let t0 = a.min(b).max_element().max(0.0);
+        let t1 = a.max(b).min_element().min(t_max);
+        // NaN (0 · ∞ on a face) counts as a possible hit.
+        t0.partial_cmp(&t1) != Some(std::cmp::Ordering::Greater)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.triangles.capacity() * std::mem::size_of::<Triangle>()
+            + self.object_of.capacity() * 4
+            + self.bvh.nodes.capacity() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
+            + self.bvh.primitive_indices.capacity() * 4
+    }
+}
+
+/// `d` with its negative zeros made positive: `obvhs`' traversal takes
+/// the sign bit of a −0 component for a direction it does not have, and
+/// misses (a ray straight down, (−0, −0, −1), passed through a ground
+/// plane).
+#[inline]
+fn canonical(d: Vec3) -> Vec3A {
+    Vec3A::from(d) + Vec3A::ZERO
+}
+
+/// The distance along `o + t d` to triangle `tri` for `t` in `(0, t_max)`,
+/// or infinity: Möller & Trumbore (1997), "Fast, Minimum Storage
+/// Ray/Triangle Intersection", with inclusive edges. (`obvhs`' own test
+/// reads a barycentric of −0 as negative, so a ray along an axis, a sun
+/// straight overhead, passed through a ground plane.)
+#[inline]
+fn intersect_triangle(tri: &Triangle, o: Vec3A, d: Vec3A, t_max: f32) -> f32 {
+    let e1 = tri.v1 - tri.v0;
+    let e2 = tri.v2 - tri.v0;
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return f32::INFINITY;
+    }
+    let inv = 1.0 / det;
+    let s = o - tri.v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return f32::INFINITY;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return f32::INFINITY;
+    }
+    let t = e2.dot(q) * inv;
+    if t > 0.0 && t < t_max {
+        t
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// The kinds of rays, in the order of [`Shapes`]' table.
+const KINDS: [RayKind; 6] = [
+    RayKind::CAMERA,
+    RayKind::SHADOW,
+    RayKind::DIFFUSE,
+    RayKind::GLOSSY,
+    RayKind::TRANSMISSION,
+    RayKind::VOLUME_SCATTER,
+];
+
+/// Every surface of a scene: per kind of ray, a BVH of the objects that
+/// kind sees. Kinds that see the same objects share one (with Blender's
+/// default visibility there is a single BVH); an object hidden from a kind
+/// costs that kind's rays nothing.
+#[derive(Default)]
+pub struct Shapes {
+    objects: Vec<Object>,
+    /// The BVHs, one per distinct set of visible objects.
+    sets: Vec<Set>,
+    /// For each of [`KINDS`], its BVH in `sets` (none when it sees no
+    /// surface).
+    of_kind: [Option<u8>; 6],
+    /// Whether any object catches shadows.
+    catcher: bool,
+}
+
+impl std::fmt::Debug for Shapes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Shapes")
+            .field("objects", &self.objects)
+            .field("bvhs", &self.sets.len())
+            .finish()
+    }
+}
+
+/// Bytes per triangle that [`Shapes`] keeps (triangle, object index, BVH
+/// node share and index) and that reading and building take at their peak
+/// beside them: measured on a 1 M-triangle mesh (`cargo bench --bench
+/// meshes`: 400 bytes a triangle from binary PLY, 375 from OBJ), for the
+/// memory check before a render.
+pub const BYTES_PER_TRIANGLE: u64 = 440;
+
+impl Shapes {
+    /// No surfaces.
+    pub fn empty() -> Shapes {
+        Shapes::default()
+    }
+
+    /// The objects and their world-space triangles.
+    pub fn new(parts: Vec<(Object, Vec<[Vec3; 3]>)>) -> Shapes {
+        let objects: Vec<Object> = parts.iter().map(|p| p.0.clone()).collect();
+        let catcher = objects.iter().any(|o| o.flags.shadow_catcher);
+        let mut sets = Vec::new();
+        let mut of_kind = [None; 6];
+        // The objects each kind sees (with triangles), and a BVH per
+        // distinct such set.
+        let mut seen: Vec<Vec<usize>> = Vec::new();
+        for (k, kind) in KINDS.iter().enumerate() {
+            let visible: Vec<usize> = parts
+                .iter()
+                .enumerate()
+                .filter(|(_, (o, t))| o.flags.visibility.sees(*kind) && !t.is_empty())
+                .map(|(i, _)| i)
+                .collect();
+            if visible.is_empty() {
+                continue;
+            }
+            if let Some(j) = seen.iter().position(|v| *v == visible) {
+                of_kind[k] = Some(j as u8);
+                continue;
+            }
+            let mut tris = Vec::new();
+            let mut owner = Vec::new();
+            for &i in &visible {
+                let t = &parts[i].1;
+                tris.extend(t.iter().map(|v| Triangle {
+                    v0: v[0].into(),
+                    v1: v[1].into(),
+                    v2: v[2].into(),
+                }));
+                owner.extend(std::iter::repeat_n(i as u32, t.len()));
+            }
+            sets.push(Set::new(&tris, &owner));
+            of_kind[k] = Some(seen.len() as u8);
+            seen.push(visible);
+        }
+        Shapes {
+            objects,
+            sets,
+            of_kind,
             catcher,
         }
     }
 
-    /// Whether the scene has no surface.
+    /// Whether no ray can meet a surface.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.bvh.is_none()
+        self.sets.is_empty()
     }
     /// The objects, in scene order.
     pub fn objects(&self) -> &[Object] {
@@ -232,62 +366,62 @@ impl Shapes {
     pub fn has_catcher(&self) -> bool {
         self.catcher
     }
-    /// Triangles in the BVH.
+    /// Triangles in the scene (each once, whatever the BVHs share).
     pub fn triangles(&self) -> usize {
-        self.triangles.len()
+        self.objects.iter().map(|o| o.triangles).sum()
     }
     /// Bytes the surfaces take.
     pub fn memory_bytes(&self) -> usize {
-        self.triangles.capacity() * std::mem::size_of::<Triangle>()
-            + self.object_of.capacity() * 4
-            + self.bvh.as_ref().map_or(0, |b| {
-                b.nodes.capacity() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
-                    + b.primitive_indices.capacity() * 4
-            })
+        self.sets.iter().map(Set::memory_bytes).sum()
+    }
+
+    #[inline]
+    fn set(&self, kind: RayKind) -> Option<&Set> {
+        let k = kind.0.trailing_zeros() as usize;
+        self.of_kind[k].map(|i| &self.sets[i as usize])
     }
 
     /// The nearest surface along `o + t d` (`d` unit) with `t` in
     /// `(0, t_max)` that rays of `kind` see.
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32, kind: RayKind) -> Option<Hit> {
-        self.intersect_where(o, d, t_max, |f| f.visibility.sees(kind))
+        self.intersect_where(o, d, t_max, kind, |_| true)
     }
 
-    /// [`Self::intersect`] for the surfaces `keep` accepts.
+    /// [`Self::intersect`] among the surfaces rays of `kind` see that
+    /// `keep` accepts.
     #[inline]
     pub fn intersect_where(
         &self,
         o: Vec3,
         d: Vec3,
         t_max: f32,
+        kind: RayKind,
         keep: impl Fn(&ObjectFlags) -> bool,
     ) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        let ray = BvhRay::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
+        let set = self.set(kind)?;
+        let (oa, da) = (Vec3A::from(o), canonical(d));
+        if !set.may_hit(oa, da.recip(), t_max) {
+            return None;
+        }
+        let ray = BvhRay::new(oa, da, 0.0, t_max);
         let mut hit = RayHit::none();
-        let found = bvh.ray_traverse(ray, &mut hit, |r, id| {
-            let obj = self.object_of[id];
-            if !keep(&self.objects[obj as usize].flags) {
+        let found = set.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            if !keep(&self.objects[set.object_of[id] as usize].flags) {
                 return f32::INFINITY;
             }
-            let t = self.triangles[id].intersect(r);
-            if t > 0.0 {
-                t
-            } else {
-                f32::INFINITY
-            }
+            intersect_triangle(&set.triangles[id], r.origin, r.direction, r.tmax)
         });
         if !found {
             return None;
         }
         let id = hit.primitive_id as usize;
-        let tri = &self.triangles[id];
-        let n = Vec3::from(tri.compute_normal());
+        let n = Vec3::from(set.triangles[id].compute_normal());
         Some(Hit {
             t: hit.t,
             p: o + d * hit.t,
             n: if n.dot(d) > 0.0 { -n } else { n },
-            object: self.object_of[id],
+            object: set.object_of[id],
         })
     }
 
@@ -295,32 +429,33 @@ impl Shapes {
     /// `t` in `(0, t_max)` (a shadow ray: any hit will do).
     #[inline]
     pub fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, kind: RayKind) -> bool {
-        self.occluded_where(o, d, t_max, |f| f.visibility.sees(kind))
+        self.occluded_where(o, d, t_max, kind, |_| true)
     }
 
-    /// [`Self::occluded`] for the surfaces `keep` accepts.
+    /// [`Self::occluded`] among the surfaces rays of `kind` see that `keep`
+    /// accepts.
     #[inline]
     pub fn occluded_where(
         &self,
         o: Vec3,
         d: Vec3,
         t_max: f32,
+        kind: RayKind,
         keep: impl Fn(&ObjectFlags) -> bool,
     ) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
+        let Some(set) = self.set(kind) else {
             return false;
         };
-        let ray = BvhRay::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
-        !bvh.ray_traverse_miss(ray, |r, id| {
-            if !keep(&self.objects[self.object_of[id] as usize].flags) {
+        let (oa, da) = (Vec3A::from(o), canonical(d));
+        if !set.may_hit(oa, da.recip(), t_max) {
+            return false;
+        }
+        let ray = BvhRay::new(oa, da, 0.0, t_max);
+        !set.bvh.ray_traverse_miss(ray, |r, id| {
+            if !keep(&self.objects[set.object_of[id] as usize].flags) {
                 return f32::INFINITY;
             }
-            let t = self.triangles[id].intersect(r);
-            if t > 0.0 {
-                t
-            } else {
-                f32::INFINITY
-            }
+            intersect_triangle(&set.triangles[id], r.origin, r.direction, r.tmax)
         })
     }
 }
@@ -386,5 +521,27 @@ mod tests {
         assert!(Shapes::empty()
             .intersect(o, d, f32::INFINITY, RayKind::CAMERA)
             .is_none());
+    }
+
+    /// Rays along an axis, from either side, with negative zeros in their
+    /// direction (−Vec3::Z is (−0, −0, −1)) or through the edge two
+    /// triangles share, hit a lone flat square: `obvhs`' own triangle test
+    /// and its traversal of a −0 direction both missed it.
+    #[test]
+    fn axis_rays_hit_a_flat_square() {
+        let s = Shapes::new(vec![square(0.5, ObjectFlags::default())]);
+        for (o, d) in [
+            (Vec3::new(0.2, 0.1, 3.0), -Vec3::Z),
+            (Vec3::new(0.3, 0.3, -5.0), Vec3::Z),
+            (Vec3::new(0.0, 0.0, -5.0), Vec3::Z),
+            (Vec3::new(-0.25, -0.25, 2.0), -Vec3::Z),
+            (Vec3::new(0.2, 3.0, 0.5), -Vec3::Y),
+        ] {
+            assert!(
+                s.intersect(o, d, f32::INFINITY, RayKind::SHADOW).is_some() || d == -Vec3::Y,
+                "{o} {d}"
+            );
+            assert!(s.occluded(o, d, f32::INFINITY, RayKind::SHADOW) || d == -Vec3::Y);
+        }
     }
 }
