@@ -984,3 +984,172 @@ fn media_photons_carry_the_emitted_power_evenly() {
     );
     assert!(spread < 1.5, "E[Φ²]/E[Φ]² = {spread}");
 }
+
+/// Cycles 5's new phase functions through both integrators: a thin slab
+/// (z in [−h, h], optical depth 2hσt = 0.02 straight through) of Cycles'
+/// Mie medium (20 µm droplets) and of Fournier–Forand (B 0.1, IOR 1.33),
+/// lit from below by a sun 35° off the vertical and seen from straight
+/// above through a 1° lens, so that its light reaches the camera scattered
+/// by 35°. Single scattering in closed form: along the camera ray, t
+/// below the top face, the sun's light has crossed (2h − t)/cos 35° of the
+/// slab, so L = σs·p(35°)·E·e^{−2hσt/cos 35°}·(1 − e^{−2ha})/a with
+/// a = σt(1 − 1/cos 35°). The path tracer's image mean lies within 4
+/// standard errors of it (its passes' spread: most camera rays cross the
+/// slab without a collision) plus 1.5 % for what scattered more than once
+/// adds, the photon integrator's (single scattering marched, the rest
+/// gathered from photons) within 3 %. p(35°) comes from the published
+/// forms (Cycles' Mie fit with HG and Draine; Fournier & Jonasz 1999), not
+/// from `eval`. Checked to fail with each function's lobe mirrored in
+/// `eval` (its value at 145° instead: both integrators then give an
+/// eighth of the closed form for Fournier–Forand, a fifteenth for Mie).
+#[test]
+fn thin_slab_of_cycles_phase_functions_matches_single_scattering() {
+    let (sa, ss, h, e) = (0.1f32, 0.9f32, 0.01f32, 2.0f32);
+    let st = sa + ss;
+    let tilt = 35f32.to_radians();
+    let to_sun = Vec3::new(tilt.sin(), 0.0, -tilt.cos());
+    use std::f64::consts::PI;
+    // Henyey–Greenstein and Draine in μ = cos θ, θ the deflection.
+    let hg = |mu: f64, g: f64| (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * mu).powf(1.5));
+    let draine = |mu: f64, g: f64, a: f64| {
+        hg(mu, g) * (1.0 + a * mu * mu) / (1.0 + a * (1.0 + 2.0 * g * g) / 3.0)
+    };
+    let published = |name: &str, mu: f64| {
+        if name.starts_with("mie") {
+            let m = vdbphoton::phase::mie_fit(20.0);
+            let (g, gd, a, w) = (m.g_hg as f64, m.g_d as f64, m.alpha as f64, m.w_d as f64);
+            (1.0 - w) * hg(mu, g) + w * draine(mu, gd, a)
+        } else {
+            // Fournier & Jonasz 1999, v from B = 0.1 at IOR 1.33.
+            let (b, n) = (0.1f32 as f64, 1.33f32 as f64);
+            let delta = |s: f64| 4.0 * s / (3.0 * (n - 1.0) * (n - 1.0));
+            let d90 = delta(0.5);
+            let v = -(1.0 + 2.0 * b * (d90 - 1.0)).ln() / d90.ln();
+            let (s, d180) = ((1.0 - mu) / 2.0, delta(1.0));
+            let (d, dv) = (delta(s), delta(s).powf(v));
+            (v * (1.0 - d) - (1.0 - dv) + (d * (1.0 - dv) - v * (1.0 - d)) / s)
+                / (4.0 * PI * (1.0 - d).powi(2) * dv)
+                + (1.0 - d180.powf(v)) / (16.0 * PI * (d180 - 1.0) * d180.powf(v))
+                    * (3.0 * mu * mu - 1.0)
+        }
+    };
+    for (name, phase) in [
+        ("mie 20 µm", PhaseFunction::mie(20.0)),
+        ("fournier-forand", PhaseFunction::fournier_forand(0.1, 1.33)),
+    ] {
+        let slab = Volume::new(
+            "slab",
+            common::unit_box_grid(),
+            ExtraGrids::default(),
+            Material::Raw {
+                sigma_a: Rgb::splat(sa),
+                sigma_s: Rgb::splat(ss),
+                emission: Rgb::ZERO,
+                phase,
+            },
+            DAffine3::from_scale(glam::DVec3::new(4.0, 4.0, h as f64)),
+        )
+        .unwrap();
+        let w = World {
+            camera: Camera::new(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 1.0, W, H),
+            lights: vec![Light::sun(to_sun, Rgb::splat(e), 0.0)],
+            environment: Environment::Constant(Rgb::ZERO),
+            media: Media::new(vec![slab]),
+            warnings: vec![],
+            load_seconds: 0.0,
+        };
+        // The phase function at 35° from its published form, not from
+        // `eval`, which the renders use.
+        let p = published(name, (tilt as f64).cos()) as f32;
+        let a = st * (1.0 - 1.0 / tilt.cos());
+        let want = (ss * p * e * (-2.0 * h * st / tilt.cos()).exp() * (1.0 - (-2.0 * h * a).exp())
+            / a) as f64;
+
+        let passes = 1200;
+        let mut cumulative = vec![];
+        run(
+            &w,
+            &mut PathIntegrator::new(256),
+            5,
+            passes,
+            false,
+            |_, f| cumulative.push(mean(&f.mean_rgb())),
+        );
+        let per_pass: Vec<f64> = (0..cumulative.len())
+            .map(|k| {
+                let before = if k == 0 {
+                    0.0
+                } else {
+                    k as f64 * cumulative[k - 1]
+                };
+                (k + 1) as f64 * cumulative[k] - before
+            })
+            .collect();
+        let n = per_pass.len() as f64;
+        let path = per_pass.iter().sum::<f64>() / n;
+        let se = (per_pass.iter().map(|x| (x - path).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+        let mut ph = PhotonIntegrator::new(&w, settings(20_000), 256, 3).unwrap();
+        let photon = mean(&run(&w, &mut ph, 4, 16, false, |_, _| {}).mean_rgb());
+        eprintln!("{name}: closed form {want:.5}, path {path:.5} ± {se:.5}, photon {photon:.5}");
+        assert!(
+            (path - want).abs() < 4.0 * se + 0.015 * want,
+            "{name}: path tracer {path} ± {se}, single scattering {want}"
+        );
+        assert!(
+            (photon / want - 1.0).abs() < 0.03,
+            "{name}: photon integrator {photon}, single scattering {want}"
+        );
+    }
+}
+
+/// The photon gather with Cycles 5's phase functions: in a box (σs 4,
+/// albedo 0.8, 1.2 across) lit from behind by a sun, the light scattered
+/// more than once (the `indirect` AOV), which the photon integrator
+/// gathers from its photons weighted by the volume's phase function
+/// (blurred by its angular kernel), against the path tracer's, for Mie
+/// (2 µm droplets: an HG lobe of g 0.92 and a Draine lobe) and
+/// Fournier–Forand (B 0.3, IOR 1.33). (Mie's 20 µm droplets, with an HG
+/// lobe of g 0.995, make both estimates too noisy for a quick test.) The
+/// photon estimate lies 3 to 5 % below the path tracer's here at 32
+/// passes, as it does for HG(0.7) (−3 % at 128 passes: the kernels' bias
+/// in a small box), hence 6 %. Checked to fail with `blurred` turning Mie or Fournier–Forand
+/// isotropic (the fallback of a missing match arm) and with Mie's HG lobe
+/// blurred to half its g.
+#[test]
+fn photon_gather_with_cycles_phase_functions_matches_the_path_tracer() {
+    for (name, phase) in [
+        ("mie 2 µm", PhaseFunction::mie(2.0)),
+        ("fournier-forand", PhaseFunction::fournier_forand(0.3, 1.33)),
+    ] {
+        let volumes = || {
+            vec![Volume::new(
+                "box",
+                common::unit_box_grid(),
+                ExtraGrids::default(),
+                Material::Raw {
+                    sigma_a: Rgb::splat(1.0),
+                    sigma_s: Rgb::splat(4.0),
+                    emission: Rgb::ZERO,
+                    phase,
+                },
+                DAffine3::from_scale(glam::DVec3::splat(0.6)),
+            )
+            .unwrap()]
+        };
+        let sun = || vec![Light::sun(Vec3::new(-0.3, 0.8, 0.6), Rgb::splat(3.0), 0.0)];
+        let w = world(volumes(), sun(), Rgb::ZERO);
+        let reference = path_reference(&w, 512, 256);
+        let mut ph = PhotonIntegrator::new(&w, settings(40_000), 256, 2).unwrap();
+        let photon = run(&w, &mut ph, 2, 32, true, |_, _| {});
+        let (a, b) = (
+            layer_mean(&photon, "indirect"),
+            layer_mean(&reference, "indirect"),
+        );
+        eprintln!("{name}: indirect photon {a:.5}, path {b:.5}");
+        assert!(b > 0.005, "{name}: too little multiple scattering: {b}");
+        assert!(
+            (a / b - 1.0).abs() < 0.06,
+            "{name}: indirect {a} against the path tracer's {b}"
+        );
+    }
+}

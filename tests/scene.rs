@@ -301,6 +301,90 @@ fn raw_material_and_each_phase_type() {
         )),
         PhaseDesc::Hg { g: 0.5 }
     );
+    // Cycles 5's Volume Scatter phases.
+    assert_eq!(
+        phase(raw_phase(
+            "phase = { type = \"fournier_forand\", backscatter = 0.1, ior = 1.33 }"
+        )),
+        PhaseDesc::FournierForand {
+            backscatter: 0.1,
+            ior: 1.33
+        }
+    );
+    assert_eq!(
+        phase(raw_phase(
+            "phase = { type = \"draine\", g = 0.4, alpha = 0.5 }"
+        )),
+        PhaseDesc::Draine { g: 0.4, alpha: 0.5 }
+    );
+    assert_eq!(
+        phase(raw_phase("phase = { type = \"rayleigh\" }")),
+        PhaseDesc::Rayleigh
+    );
+    assert_eq!(
+        phase(raw_phase("phase = { type = \"mie\", diameter = 20 }")),
+        PhaseDesc::Mie { diameter: 20.0 }
+    );
+}
+
+/// Cycles 5's phase types: each key required where used, refused where
+/// not, and within the range of Blender's Volume Scatter socket.
+#[test]
+fn error_cycles_phase_keys_and_ranges() {
+    let e = |phase: &str| {
+        toml_err(&format!(
+            "{VOL}[volume.material]\nsigma_s = 1\nphase = {{ {phase} }}\n"
+        ))
+    };
+    let at = "scene.toml:5: key 'phase";
+    for (phase, want) in [
+        (
+            "type = \"fournier_forand\", backscatter = 0.1",
+            ".ior' in [volume.material]: missing (required for phase type \"fournier_forand\")",
+        ),
+        (
+            "type = \"fournier_forand\", backscatter = 0.6, ior = 1.33",
+            ".backscatter' in [volume.material]: must be in [0, 0.5], got 0.6",
+        ),
+        (
+            "type = \"fournier_forand\", backscatter = 0.1, ior = 0.9",
+            ".ior' in [volume.material]: must be in [1, 2], got 0.9",
+        ),
+        (
+            "type = \"draine\", g = 0.5",
+            ".alpha' in [volume.material]: missing (required for phase type \"draine\")",
+        ),
+        (
+            "type = \"draine\", g = 0.5, alpha = -1",
+            ".alpha' in [volume.material]: must be in [0, 500], got -1",
+        ),
+        (
+            "type = \"draine\", g = -1.5, alpha = 1",
+            ".g' in [volume.material]: must be in [-1, 1], got -1.5",
+        ),
+        (
+            "type = \"mie\", diameter = 60",
+            ".diameter' in [volume.material]: must be in [0, 50], got 60",
+        ),
+        (
+            "type = \"mie\"",
+            ".diameter' in [volume.material]: missing (required for phase type \"mie\")",
+        ),
+        (
+            "type = \"rayleigh\", g = 0.3",
+            ".g' in [volume.material]: not used by phase type \"rayleigh\"",
+        ),
+        (
+            "type = \"hg\", g = 0.3, diameter = 20",
+            ".diameter' in [volume.material]: not used by phase type \"hg\"",
+        ),
+        (
+            "type = \"mie\", diameter = 20, alpha = 2",
+            ".alpha' in [volume.material]: not used by phase type \"mie\"",
+        ),
+    ] {
+        assert_eq!(e(phase), format!("{at}{want}"), "{phase}");
+    }
 }
 
 const FULL_TOML: &str = r#"
@@ -907,7 +991,7 @@ fn unknown_key_in_toml_names_key_and_line() {
     );
     assert_eq!(
         toml_err(&format!("{VOL}material = {{ phase = {{ type = \"hg\", gg = 1 }} }}\n")),
-        "scene.toml:3: unknown key 'phase.gg' in [volume.material] (expected one of: type, g, lobes; did you mean 'g'?)"
+        "scene.toml:3: unknown key 'phase.gg' in [volume.material] (expected one of: type, g, lobes, backscatter, ior, alpha, diameter; did you mean 'g'?)"
     );
     assert_eq!(
         toml_err(&format!("lights = 1\n{VOL}")),

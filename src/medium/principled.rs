@@ -89,6 +89,12 @@ impl Material {
                     PhaseDesc::HgMix(lobes) => {
                         PhaseFunction::hg_mix(lobes).unwrap_or(PhaseFunction::Isotropic)
                     }
+                    PhaseDesc::FournierForand { backscatter, ior } => {
+                        PhaseFunction::fournier_forand(*backscatter, *ior)
+                    }
+                    PhaseDesc::Draine { g, alpha } => PhaseFunction::draine(*g, *alpha),
+                    PhaseDesc::Rayleigh => PhaseFunction::Rayleigh,
+                    PhaseDesc::Mie { diameter } => PhaseFunction::mie(*diameter),
                 },
             },
         }

@@ -550,6 +550,17 @@ pub enum PhaseDesc {
     /// Weighted mix of HG lobes, `(g, weight)`; weights are not normalised
     /// (the renderer divides by their sum).
     HgMix(Vec<(f32, f32)>),
+    /// Fournier–Forand as Cycles' Volume Scatter node has it: the fraction
+    /// of light scattered backwards (by more than 90°), in [0, 0.5], and the
+    /// particles' relative index of refraction, in [1, 2].
+    FournierForand { backscatter: f32, ior: f32 },
+    /// Draine: anisotropy `g` in [−1, 1] and `alpha` in [0, 500].
+    Draine { g: f32, alpha: f32 },
+    /// Rayleigh.
+    Rayleigh,
+    /// Cycles' Mie approximation for water droplets of `diameter`
+    /// micrometres, in [0, 50].
+    Mie { diameter: f32 },
 }
 
 /// `(sin, cos)` of an angle in degrees, exact for multiples of 90°.

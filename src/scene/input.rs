@@ -431,6 +431,10 @@ enum PhaseKind {
     Hg,
     Schlick,
     HgMix,
+    FournierForand,
+    Draine,
+    Rayleigh,
+    Mie,
 }
 
 #[derive(Debug, Deserialize)]
@@ -440,6 +444,10 @@ struct PhaseIn {
     kind: PhaseKind,
     g: Option<f64>,
     lobes: Option<Vec<LobeIn>>,
+    backscatter: Option<f64>,
+    ior: Option<f64>,
+    alpha: Option<f64>,
+    diameter: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -1045,32 +1053,39 @@ impl MaterialIn {
 
 impl PhaseIn {
     fn into_desc(self, path: &[PathSeg]) -> Conv<PhaseDesc> {
-        let (name, needs_g) = match self.kind {
-            PhaseKind::Isotropic => ("isotropic", false),
-            PhaseKind::Hg => ("hg", true),
-            PhaseKind::Schlick => ("schlick", true),
-            PhaseKind::HgMix => ("hg_mix", false),
+        let (name, keys): (&str, &[&str]) = match self.kind {
+            PhaseKind::Isotropic => ("isotropic", &[]),
+            PhaseKind::Hg => ("hg", &["g"]),
+            PhaseKind::Schlick => ("schlick", &["g"]),
+            PhaseKind::HgMix => ("hg_mix", &["lobes"]),
+            PhaseKind::FournierForand => ("fournier_forand", &["backscatter", "ior"]),
+            PhaseKind::Draine => ("draine", &["g", "alpha"]),
+            PhaseKind::Rayleigh => ("rayleigh", &[]),
+            PhaseKind::Mie => ("mie", &["diameter"]),
         };
         let what = format!("for phase type \"{name}\"");
-        let unused = |key: &str| {
-            ValidationError::new(
+        let given = [
+            ("g", self.g.is_some()),
+            ("lobes", self.lobes.is_some()),
+            ("backscatter", self.backscatter.is_some()),
+            ("ior", self.ior.is_some()),
+            ("alpha", self.alpha.is_some()),
+            ("diameter", self.diameter.is_some()),
+        ];
+        if let Some((key, _)) = given.iter().find(|(k, set)| *set && !keys.contains(k)) {
+            return Err(ValidationError::new(
                 with(path, key),
                 format!("not used by phase type \"{name}\""),
-            )
-        };
-        if self.g.is_some() && !needs_g {
-            return Err(unused("g"));
+            ));
         }
-        if self.lobes.is_some() && self.kind != PhaseKind::HgMix {
-            return Err(unused("lobes"));
-        }
+        let num = |v: Option<f64>, key: &str| require(v, path, key, &what).map(|v| v as f32);
         Ok(match self.kind {
             PhaseKind::Isotropic => PhaseDesc::Isotropic,
             PhaseKind::Hg => PhaseDesc::Hg {
-                g: require(self.g, path, "g", &what)? as f32,
+                g: num(self.g, "g")?,
             },
             PhaseKind::Schlick => PhaseDesc::Schlick {
-                g: require(self.g, path, "g", &what)? as f32,
+                g: num(self.g, "g")?,
             },
             PhaseKind::HgMix => PhaseDesc::HgMix(
                 require(self.lobes, path, "lobes", &what)?
@@ -1078,6 +1093,18 @@ impl PhaseIn {
                     .map(|l| (l.g as f32, l.weight as f32))
                     .collect(),
             ),
+            PhaseKind::FournierForand => PhaseDesc::FournierForand {
+                backscatter: num(self.backscatter, "backscatter")?,
+                ior: num(self.ior, "ior")?,
+            },
+            PhaseKind::Draine => PhaseDesc::Draine {
+                g: num(self.g, "g")?,
+                alpha: num(self.alpha, "alpha")?,
+            },
+            PhaseKind::Rayleigh => PhaseDesc::Rayleigh,
+            PhaseKind::Mie => PhaseDesc::Mie {
+                diameter: num(self.diameter, "diameter")?,
+            },
         })
     }
 }

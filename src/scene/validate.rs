@@ -440,8 +440,25 @@ fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
             non_negative3(&k("emission"), *emission)?;
             let p = k("phase");
             match phase {
-                PhaseDesc::Isotropic => Ok(()),
+                PhaseDesc::Isotropic | PhaseDesc::Rayleigh => Ok(()),
                 PhaseDesc::Hg { g } | PhaseDesc::Schlick { g } => g_range(&with(&p, "g"), *g),
+                // The ranges of Blender 5's Volume Scatter node's sockets.
+                PhaseDesc::FournierForand { backscatter, ior } => {
+                    in_range(
+                        &with(&p, "backscatter"),
+                        *backscatter,
+                        (0.0, true),
+                        (0.5, true),
+                    )?;
+                    in_range(&with(&p, "ior"), *ior, (1.0, true), (2.0, true))
+                }
+                PhaseDesc::Draine { g, alpha } => {
+                    g_range(&with(&p, "g"), *g)?;
+                    in_range(&with(&p, "alpha"), *alpha, (0.0, true), (500.0, true))
+                }
+                PhaseDesc::Mie { diameter } => {
+                    in_range(&with(&p, "diameter"), *diameter, (0.0, true), (50.0, true))
+                }
                 PhaseDesc::HgMix(lobes) => {
                     let lobes_path = with(&p, "lobes");
                     let mut sum = 0.0;
