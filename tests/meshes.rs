@@ -45,6 +45,7 @@ fn quad(v: [Vec3; 4]) -> TriangleMesh {
     TriangleMesh {
         positions: v.to_vec(),
         triangles: vec![[0, 1, 2], [0, 2, 3]],
+        ..Default::default()
     }
 }
 
@@ -272,6 +273,17 @@ fn a_holdout_cuts_an_exact_hole() {
         // it covers in part, with their variances (a sample's alpha is
         // close to a Bernoulli variable of its mean: here the trackers'
         // transmittance is nearly always 0 or 1).
+        // Rays that pass the ball's centre closer than the polyhedron's
+        // inscribed radius hit it, those beyond its radius miss it; the
+        // triangles decide in between.
+        let centre = DVec3::new(0.3, 0.2, 5.0);
+        let eye = DVec3::new(0.0, 0.0, 10.0);
+        let inscribed = 0.45 * (PI / 24.0).cos() * (PI / 48.0).cos();
+        let covers = |r: DVec3| {
+            let to = centre - eye;
+            let miss = (to - r * to.dot(r)).length();
+            miss < inscribed || (miss <= 0.45 && hits(&ball, eye, r))
+        };
         let (mut open, mut edge) = ([0.0f64; 3], [0.0f64; 3]);
         let mut full = 0;
         for y in 0..w {
@@ -285,7 +297,7 @@ fn a_holdout_cuts_an_exact_hole() {
                         let v =
                             (1.0 - (y as f64 + (j as f64 + 0.5) / k as f64) / w as f64 * 2.0) * t;
                         let r = DVec3::new(u, v, -1.0).normalize();
-                        covered += hits(&ball, DVec3::new(0.0, 0.0, 10.0), r) as u32;
+                        covered += covers(r) as u32;
                     }
                 }
                 let cov = covered as f64 / (k * k) as f64;
@@ -741,4 +753,202 @@ fn scenes_without_meshes_render_the_bits_they_did() {
             );
         }
     }
+}
+
+/// The ground-and-ball scene of [`tiles_with_meshes_merge_into_the_full_frame`]
+/// in `d` (`s.toml`), larger, for renders that take a while.
+fn ground_and_ball(d: &Path) {
+    write_slab(&d.join("slab.vdb"), -4.0, 0.0, 1.0);
+    write_ply(
+        &d.join("ground.ply"),
+        &quad([
+            Vec3::new(-20.0, -20.0, 0.0),
+            Vec3::new(20.0, -20.0, 0.0),
+            Vec3::new(20.0, 20.0, 0.0),
+            Vec3::new(-20.0, 20.0, 0.0),
+        ]),
+    );
+    write_ply(
+        &d.join("ball.ply"),
+        &sphere(Vec3::new(0.5, 0.0, 4.0), 0.5, 8, 16),
+    );
+    let scene = top_down(
+        72,
+        0.5,
+        0.5,
+        Vec3::new(0.2, 0.3, 1.0),
+        "[[mesh]]\nfile = \"ground.ply\"\nshadow_catcher = true\n[[mesh]]\nfile = \"ball.ply\"\nholdout = true\n[environment]\nradiance = 0.2\n",
+    )
+    .replace("max_bounces = 1", "max_bounces = 64");
+    std::fs::write(d.join("s.toml"), scene).unwrap();
+}
+
+/// A render with meshes killed by SIGKILL once a checkpoint is down and
+/// resumed gives the uninterrupted render's bits, the Shadow Catcher pass
+/// included (its sums are part of the state).
+#[test]
+fn a_killed_render_with_meshes_resumes_to_the_same_bits() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    ground_and_ball(d);
+    for integrator in ["path", "photon"] {
+        let args = |out: &str| -> Vec<String> {
+            [
+                "render",
+                "s.toml",
+                "--integrator",
+                integrator,
+                "--spp",
+                "64",
+                "-o",
+                out,
+                "--no-preview",
+                "--threads",
+                "2",
+            ]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+        };
+        let whole = render(
+            d,
+            "s.toml",
+            &["--integrator", integrator, "--spp", "64", "-o", "whole.exr"],
+        );
+        let mut a = args("killed.exr");
+        a.extend(["--checkpoint".into(), "0.05s".into()]);
+        let mut child = Command::new(BIN)
+            .current_dir(d)
+            .args(&a)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let state = vdbphoton::render::resume::state_path(&d.join("killed.exr"));
+        let t = std::time::Instant::now();
+        while !state.exists() && t.elapsed().as_secs() < 60 {
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        child.kill().unwrap();
+        child.wait().unwrap();
+        assert!(state.exists(), "{integrator}: no checkpoint");
+        a.push("--resume".into());
+        let refs: Vec<&str> = a.iter().map(|s| s.as_str()).collect();
+        let r = run(d, &refs);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        assert!(r.stderr.contains("resumed"), "{integrator}: {}", r.stderr);
+        let resumed = read_exr(d.join("killed.exr")).unwrap().0;
+        assert_eq!(resumed.pixels(), whole.pixels(), "{integrator}");
+        assert_eq!(
+            resumed.layer("shadow_catcher").unwrap().data(),
+            whole.layer("shadow_catcher").unwrap().data(),
+            "{integrator}"
+        );
+    }
+}
+
+/// Blender's smoke + fire frame over a shadow-catcher ground behind a
+/// holdout ball (`tests/data/cycles/smoke25_shot.toml`), motion-blurred
+/// and denoised, renders with both integrators: every pixel and pass
+/// finite, alpha in [0, 1], the pass 1 above the horizon, and the
+/// denoiser's layers there (needs `VDBPHOTON_REAL_DATA` and, for the
+/// denoising, Open Image Denoise).
+#[test]
+fn the_smoke_shot_renders_blurred_and_denoised() {
+    let Some(data) = common::real_data() else {
+        eprintln!("skipped: no VDBPHOTON_REAL_DATA");
+        return;
+    };
+    let denoise = vdbphoton::denoise::Oidn::load(1).is_ok();
+    let dir = common::tempdir();
+    let d = dir.path();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cycles");
+    let text = std::fs::read_to_string(root.join("smoke25_shot.toml"))
+        .unwrap()
+        .replace("../../../../shared/data", data.to_str().unwrap())
+        .replace(
+            "smoke25_shot_meshes/",
+            &format!("{}/smoke25_shot_meshes/", root.display()),
+        )
+        .replace(
+            "film_transparent = true",
+            "film_transparent = true\nmotion_blur = true",
+        );
+    std::fs::write(d.join("s.toml"), text).unwrap();
+    for integrator in ["path", "photon"] {
+        let mut args = vec![
+            "--integrator",
+            integrator,
+            "--spp",
+            "8",
+            "--width",
+            "100",
+            "--height",
+            "75",
+            "-o",
+            "o.exr",
+        ];
+        if denoise {
+            args.push("--denoise");
+        }
+        let img = render(d, "s.toml", &args);
+        let pass = img.layer("shadow_catcher").unwrap();
+        for y in 0..75 {
+            for x in 0..100 {
+                let c = img.get(x, y);
+                assert!(
+                    c.is_finite() && (0.0..=1.0).contains(&c.w),
+                    "{integrator} ({x}, {y}) {c}"
+                );
+                assert!(pass.get(x, y).iter().all(|v| v.is_finite() && *v >= 0.0));
+            }
+        }
+        assert_eq!(pass.get(50, 0), &[1.0, 1.0, 1.0], "{integrator}: the sky");
+        if denoise {
+            assert!(img.layer("noisy").is_some() && img.layer("albedo").is_some());
+        }
+    }
+}
+
+/// Vertex normals and texture coordinates are read where the file has
+/// them: PLY's `nx ny nz` and `s t` (Blender's names), OBJ's `vn` and `vt`
+/// (a vertex whose corners differ is split); a file without them has
+/// none.
+#[test]
+fn normals_and_texture_coordinates_are_read() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    std::fs::write(
+        d.join("a.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0 0 1 0 0\n1 0 0 0 0.6 0.8 1 0\n0 1 0 0.6 0 0.8 0 1\n3 0 1 2\n",
+    )
+    .unwrap();
+    let m = mesh::read(&d.join("a.ply")).unwrap();
+    assert_eq!(
+        m.normals,
+        vec![Vec3::Z, Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.6, 0.0, 0.8)]
+    );
+    assert_eq!(m.uvs, vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]);
+    std::fs::write(
+        d.join("a.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvn 0 0 1\nvn 0 0 -1\nf 1/1/1 2/2/1 3/3/1\nf 2/2/2 4/4/2 3/3/2\n",
+    )
+    .unwrap();
+    let m = mesh::read(&d.join("a.obj")).unwrap();
+    assert_eq!(m.triangles.len(), 2);
+    assert_eq!(m.normals.len(), m.positions.len());
+    assert_eq!(m.uvs.len(), m.positions.len());
+    for (t, n) in m.triangles.iter().zip([Vec3::Z, -Vec3::Z]) {
+        for &i in t {
+            assert_eq!(m.normals[i as usize], n);
+            let p = m.positions[i as usize];
+            assert_eq!(m.uvs[i as usize], glam::Vec2::new(p.x, p.y));
+        }
+    }
+    write_ply(
+        &d.join("b.ply"),
+        &quad([Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y]),
+    );
+    let m = mesh::read(&d.join("b.ply")).unwrap();
+    assert!(m.normals.is_empty() && m.uvs.is_empty());
 }

@@ -1056,6 +1056,8 @@ fn thin_slab_of_cycles_phase_functions_matches_single_scattering() {
             environment: Environment::Constant(Rgb::ZERO),
             media: Media::new(vec![slab]),
             warnings: vec![],
+            shapes: vdbphoton::shape::Shapes::empty(),
+            film_transparent: false,
             load_seconds: 0.0,
         };
         // The phase function at 35° from its published form, not from

@@ -996,7 +996,7 @@ fn unknown_key_in_toml_names_key_and_line() {
     assert_eq!(
         toml_err(&format!("lights = 1\n{VOL}")),
         "scene.toml:1: unknown key 'lights' at top level (expected one of: render, camera, light, \
-         environment, volume; did you mean 'light'?)"
+         environment, volume, mesh; did you mean 'light'?)"
     );
 }
 
@@ -1195,13 +1195,13 @@ fn meshes_and_a_transparent_film() {
 fn error_mesh_keys() {
     assert_eq!(
         toml_err(&format!("{VOL}[[mesh]]\nfile = \"a.ply\"\nvisibility = {{ reflection = false }}\n")),
-        "scene.toml:5: key 'reflection' in [mesh.visibility]: unknown field `reflection`, expected one of `camera`, `shadow`, `diffuse`, `glossy`, `transmission`, `volume_scatter`"
+        "scene.toml:5: unknown key 'reflection' in [mesh.visibility] (expected one of: camera, shadow, diffuse, glossy, transmission, volume_scatter)"
     );
     assert_eq!(
         toml_err(&format!(
             "{VOL}[[mesh]]\nfile = \"a.ply\"\ntransform = {{ scale = [1, 0, 1] }}\n"
         )),
-        "scene.toml:5: key 'transform' in [mesh]: is singular (a zero scale or degenerate matrix)"
+        "scene.toml:5: key 'transform' in [[mesh]]: is singular (a zero scale or degenerate matrix)"
     );
     assert!(toml_err(&format!("{VOL}[[mesh]]\nholdout = true\n")).contains("file"));
 }

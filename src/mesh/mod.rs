@@ -14,15 +14,21 @@ mod obj;
 mod ply;
 
 use crate::error::{Error, Result};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// A triangle mesh: vertex positions and, per triangle, three indices into
-/// them (counter-clockwise seen from the front, as the file gives them).
+/// them (counter-clockwise seen from the front, as the file gives them);
+/// per vertex, when the file has them, normals (smooth shading, as Blender
+/// writes them) and texture coordinates (its active UV map).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct TriangleMesh {
     pub positions: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// One per vertex, or none.
+    pub normals: Vec<Vec3>,
+    /// One per vertex, or none.
+    pub uvs: Vec<Vec2>,
 }
 
 /// The sizes of a mesh file: its vertices and (at most) its triangles, as
@@ -131,6 +137,28 @@ impl TriangleMesh {
             ));
         }
         let n = self.positions.len() as u64;
+        for (what, len) in [("normals", self.normals.len()), ("uvs", self.uvs.len())] {
+            if len != 0 && len as u64 != n {
+                return Err(format!("{len} vertex {what} for {n} vertices"));
+            }
+        }
+        if let Some((i, v)) = self
+            .normals
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !v.is_finite())
+        {
+            return Err(format!(
+                "the normal of vertex {i} is not finite ({}, {}, {}); fix the mesh or its export",
+                v.x, v.y, v.z
+            ));
+        }
+        if let Some((i, v)) = self.uvs.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(format!(
+                "the texture coordinates of vertex {i} are not finite ({}, {}); fix the mesh or its export",
+                v.x, v.y
+            ));
+        }
         for (i, t) in self.triangles.iter().enumerate() {
             if let Some(v) = t.iter().find(|&&v| v as u64 >= n) {
                 return Err(format!(
@@ -152,6 +180,8 @@ impl TriangleMesh {
     pub fn memory_bytes(&self) -> usize {
         self.positions.capacity() * std::mem::size_of::<Vec3>()
             + self.triangles.capacity() * std::mem::size_of::<[u32; 3]>()
+            + self.normals.capacity() * std::mem::size_of::<Vec3>()
+            + self.uvs.capacity() * std::mem::size_of::<Vec2>()
     }
 }
 
@@ -172,6 +202,7 @@ mod tests {
         let good = TriangleMesh {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
             triangles: vec![[0, 1, 2]],
+            ..Default::default()
         };
         assert!(good.validate().is_ok());
         let mut m = good.clone();
@@ -183,6 +214,11 @@ mod tests {
         let mut m = good.clone();
         m.triangles[0] = [0, 1, 1];
         assert!(m.validate().unwrap_err().contains("degenerate"));
+        let mut m = good.clone();
+        m.normals = vec![Vec3::Z; 2];
+        assert!(m.validate().unwrap_err().contains("2 vertex normals for 3"));
+        m.normals = vec![Vec3::Z, Vec3::Z, Vec3::NAN];
+        assert!(m.validate().unwrap_err().contains("normal of vertex 2"));
         let m = TriangleMesh {
             triangles: vec![],
             ..good

@@ -1,21 +1,24 @@
 //! Wavefront OBJ meshes, read with `tobj`: the positions (`v`) and faces
 //! (`f`, fanned into triangles) of every object and group in the file,
-//! merged into one mesh; normals, texture coordinates and materials are
-//! not read (surfaces are not shaded yet), and no `.mtl` file is opened.
+//! merged into one mesh, with their normals (`vn`) and texture coordinates
+//! (`vt`) when every object has them; materials are not read, and no
+//! `.mtl` file is opened.
 
 use super::TriangleMesh;
 use crate::error::{Error, Result};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::io::BufReader;
 use std::path::Path;
 
 pub(super) fn read(path: &Path) -> Result<TriangleMesh> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    // One index for positions, normals and texture coordinates (tobj
+    // splits vertices whose corners differ).
     let options = tobj::LoadOptions {
         triangulate: true,
+        single_index: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let (models, _) = tobj::load_obj_buf(&mut BufReader::new(file), &options, |_| {
         Err(tobj::LoadError::OpenFileFailed)
@@ -26,11 +29,30 @@ pub(super) fn read(path: &Path) -> Result<TriangleMesh> {
         let base = u32::try_from(mesh.positions.len())
             .map_err(|_| Error::file(path, "more than 2^32 vertices"))?;
         let m = m.mesh;
+        let n = m.positions.len() / 3;
+        // Normals and texture coordinates only if every object has them
+        // (an object without makes the mesh go without).
+        let first = mesh.positions.is_empty();
         mesh.positions.extend(
             m.positions
                 .chunks_exact(3)
                 .map(|p| Vec3::new(p[0], p[1], p[2])),
         );
+        if m.normals.len() == 3 * n && (first || !mesh.normals.is_empty()) {
+            mesh.normals.extend(
+                m.normals
+                    .chunks_exact(3)
+                    .map(|p| Vec3::new(p[0], p[1], p[2])),
+            );
+        } else {
+            mesh.normals.clear();
+        }
+        if m.texcoords.len() == 2 * n && (first || !mesh.uvs.is_empty()) {
+            mesh.uvs
+                .extend(m.texcoords.chunks_exact(2).map(|p| Vec2::new(p[0], p[1])));
+        } else {
+            mesh.uvs.clear();
+        }
         mesh.triangles.extend(
             m.indices
                 .chunks_exact(3)

@@ -5,7 +5,7 @@
 
 use super::{fan, MeshSize, TriangleMesh};
 use crate::error::{Error, Result};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{
     BeginList, DefaultElement, ElementDef, Encoding, Header, Property, PropertyAccess,
@@ -14,8 +14,9 @@ use ply_rs_bw::ply::{
 use std::io::{BufReader, Seek};
 use std::path::Path;
 
-/// One vertex: its position, NaN until the file sets it.
-struct Vertex([f64; 3]);
+/// One vertex: its position (NaN until the file sets it), normal and
+/// texture coordinates (NaN when the file has none).
+struct Vertex([f64; 8]);
 
 fn number(p: Property) -> Option<f64> {
     Some(match p {
@@ -33,14 +34,11 @@ fn number(p: Property) -> Option<f64> {
 
 impl PropertyAccess for Vertex {
     fn new() -> Self {
-        Vertex([f64::NAN; 3])
+        Vertex([f64::NAN; 8])
     }
     fn set_property(&mut self, name: &str, p: Property) -> PropertyAccessResult {
-        let i = match name {
-            "x" => 0,
-            "y" => 1,
-            "z" => 2,
-            _ => return PropertyAccessResult::Ignored,
+        let Some(i) = vertex_slot(name) else {
+            return PropertyAccessResult::Ignored;
         };
         match number(p) {
             Some(v) => {
@@ -56,6 +54,23 @@ impl PropertyAccess for Vertex {
     fn set_double(&mut self, name: &str, v: f64) -> PropertyAccessResult {
         self.set_property(name, Property::Double(v))
     }
+}
+
+/// Where a vertex property goes in [`Vertex`]: position, normal, texture
+/// coordinates (Blender writes `s t`; others `u v` or `texture_u
+/// texture_v`).
+fn vertex_slot(name: &str) -> Option<usize> {
+    Some(match name {
+        "x" => 0,
+        "y" => 1,
+        "z" => 2,
+        "nx" => 3,
+        "ny" => 4,
+        "nz" => 5,
+        "s" | "u" | "texture_u" | "texture_s" => 6,
+        "t" | "v" | "texture_v" | "texture_t" => 7,
+        _ => return None,
+    })
 }
 
 /// One face: its vertex indices as the file gives them (any integer type;
@@ -225,10 +240,31 @@ pub(super) fn read(path: &Path) -> Result<TriangleMesh> {
                 let v = Parser::<Vertex>::new()
                     .read_payload_for_element(&mut reader, def, &header)
                     .map_err(what)?;
+                let has = |names: &[&str]| names.iter().all(|n| def.properties.contains_key(*n));
+                let uv_names = [
+                    ["s", "t"],
+                    ["u", "v"],
+                    ["texture_u", "texture_v"],
+                    ["texture_s", "texture_t"],
+                ];
+                let normals = has(&["nx", "ny", "nz"]);
+                let uvs = uv_names.iter().any(|n| has(n));
                 mesh.positions = v
-                    .into_iter()
+                    .iter()
                     .map(|Vertex(p)| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
                     .collect();
+                if normals {
+                    mesh.normals = v
+                        .iter()
+                        .map(|Vertex(p)| Vec3::new(p[3] as f32, p[4] as f32, p[5] as f32))
+                        .collect();
+                }
+                if uvs {
+                    mesh.uvs = v
+                        .iter()
+                        .map(|Vertex(p)| Vec2::new(p[6] as f32, p[7] as f32))
+                        .collect();
+                }
             }
             "face" => {
                 let faces = Parser::<Face>::new()

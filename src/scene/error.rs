@@ -50,9 +50,10 @@ pub fn dotted(path: &[PathSeg]) -> String {
 }
 
 /// Tables written as `[[name]]`.
-const ARRAY_TABLES: [&str; 2] = ["light", "volume"];
-/// Sub-tables of `[[volume]]` usually written as `[volume.name]` headers.
-const VOLUME_SUBTABLES: [&str; 2] = ["material", "transform"];
+const ARRAY_TABLES: [&str; 3] = ["light", "volume", "mesh"];
+/// Sub-tables of `[[volume]]` and `[[mesh]]` usually written as
+/// `[volume.name]` headers.
+const VOLUME_SUBTABLES: [&str; 3] = ["material", "transform", "visibility"];
 
 /// Splits a key path into the TOML section it lives in (`in [render]`,
 /// `in [[volume]]`, `in [volume.material]`, `at top level`) and the key
@@ -78,10 +79,10 @@ pub fn split_path(path: &[PathSeg]) -> (String, Option<String>) {
             rest = &rest[1..];
         }
     }
-    if top == "volume" && rest.len() > 1 {
+    if (top == "volume" || top == "mesh") && rest.len() > 1 {
         if let PathSeg::Key(sub) = &rest[0] {
             if VOLUME_SUBTABLES.contains(&sub.as_str()) {
-                section = format!("[volume.{sub}]");
+                section = format!("[{top}.{sub}]");
                 rest = &rest[1..];
             }
         }
