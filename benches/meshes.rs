@@ -132,9 +132,10 @@ fn big_mesh() {
             holdout: false,
             shadow_catcher: false,
             visibility: Default::default(),
+            material: None,
         };
         let t1 = Instant::now();
-        let shapes = load_shapes(std::slice::from_ref(&desc), &mut Vec::new()).unwrap();
+        let (shapes, _) = load_shapes(std::slice::from_ref(&desc), &mut Vec::new()).unwrap();
         let t_all = t1.elapsed().as_secs_f64();
         let peak = peak_rss().saturating_sub(base);
         println!(

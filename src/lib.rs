@@ -5,6 +5,7 @@
 //! (`src/bin/vdbphoton`) only parses and prints.
 
 pub mod atomic;
+pub mod bsdf;
 pub mod camera;
 pub mod denoise;
 pub mod error;
@@ -32,6 +33,7 @@ pub mod scene;
 pub mod sequence;
 pub mod shape;
 pub mod stats;
+pub mod surface;
 pub mod tracking;
 pub mod units;
 pub mod vdb;

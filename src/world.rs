@@ -10,7 +10,11 @@ use crate::scene::{
     CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MeshDesc,
     MotionBlurDesc, SceneDesc, VelocityUnit, VolumeBounds, VolumeDesc,
 };
-use crate::shape::{Object, ObjectFlags, RayKind, Shapes, Visibility};
+use crate::image::texture::{ColorSpace, Texture};
+use crate::scene::{ColorInput, TextureColorSpace};
+use crate::shape::{Geometry, Object, ObjectFlags, RayKind, Shapes, Visibility};
+use crate::surface::Surface;
+use std::sync::Arc;
 use crate::vdb::VdbFile;
 use glam::{DAffine3, DVec3, Vec2, Vec3};
 use std::time::Instant;
@@ -22,6 +26,8 @@ pub struct World {
     pub media: Media,
     /// The meshes' surfaces (empty without `[[mesh]]`).
     pub shapes: Shapes,
+    /// Each mesh's material, in the order of `shapes`' objects.
+    pub surfaces: Vec<Surface>,
     /// Blender's Film > Transparent: the world seen directly is left out
     /// of the colour.
     pub film_transparent: bool,
@@ -484,9 +490,10 @@ fn mesh_flags(m: &MeshDesc) -> ObjectFlags {
     }
 }
 
-/// Reads a `[[mesh]]` and places its triangles in world space; refuses a
-/// transform that puts a vertex beyond single-precision world space.
-fn load_mesh(m: &MeshDesc) -> Result<(Object, Vec<[Vec3; 3]>)> {
+/// Reads a `[[mesh]]` and places it in world space (normals by the
+/// transform's inverse transpose); refuses a transform that puts a vertex
+/// beyond single-precision world space.
+fn load_mesh(m: &MeshDesc) -> Result<(Object, Geometry)> {
     let mesh = crate::mesh::read(&m.file)?;
     let t = m.transform;
     let world: Vec<Vec3> = mesh
@@ -507,10 +514,11 @@ fn load_mesh(m: &MeshDesc) -> Result<(Object, Vec<[Vec3; 3]>)> {
             ),
         ));
     }
-    let triangles: Vec<[Vec3; 3]> = mesh
-        .triangles
+    let normal_matrix = t.matrix3.inverse().transpose();
+    let normals = mesh
+        .normals
         .iter()
-        .map(|t| t.map(|i| world[i as usize]))
+        .map(|n| (normal_matrix * n.as_dvec3()).normalize_or_zero().as_vec3())
         .collect();
     let name = m.name.clone().unwrap_or_else(|| {
         m.file
@@ -521,38 +529,62 @@ fn load_mesh(m: &MeshDesc) -> Result<(Object, Vec<[Vec3; 3]>)> {
         Object {
             name,
             flags: mesh_flags(m),
-            triangles: triangles.len(),
+            triangles: mesh.triangles.len(),
         },
-        triangles,
+        Geometry {
+            positions: world,
+            triangles: mesh.triangles,
+            normals,
+            uvs: mesh.uvs,
+        },
     ))
 }
 
-/// The surfaces of a scene's `[[mesh]]`es, and what the render should say
-/// about them.
-pub fn load_shapes(meshes: &[MeshDesc], warnings: &mut Vec<String>) -> Result<Shapes> {
-    let mut parts = Vec::with_capacity(meshes.len());
-    for (i, m) in meshes.iter().enumerate() {
-        parts.push(
-            load_mesh(m).map_err(|e| e.context(format!("[[mesh]] {} {}", i + 1, m.label())))?,
+/// A `[[mesh]]`'s material with its textures read (each file and colour
+/// space once, in `cache`); Cycles' default surface when it has none.
+fn load_surface(
+    m: &MeshDesc,
+    cache: &mut Vec<((std::path::PathBuf, ColorSpace), Arc<Texture>)>,
+) -> Result<Surface> {
+    let Some(desc) = &m.material else {
+        return Ok(Surface::default_surface());
+    };
+    Surface::from_desc(desc, |c| {
+        let ColorInput::Texture { file, colorspace } = c else {
+            return Ok(None);
+        };
+        let space = match colorspace {
+            TextureColorSpace::Srgb => ColorSpace::Srgb,
+            TextureColorSpace::Linear => ColorSpace::Linear,
+        };
+        let key = (file.clone(), space);
+        if let Some((_, t)) = cache.iter().find(|(k, _)| *k == key) {
+            return Ok(Some(t.clone()));
+        }
+        let t = Arc::new(
+            Texture::read(file, space)
+                .map_err(|e| Error::Argument(format!("[mesh.material] texture: {e}")))?,
         );
+        cache.push((key, t.clone()));
+        Ok(Some(t))
+    })
+}
+
+/// The surfaces of a scene's `[[mesh]]`es and their materials (by object,
+/// in the order of `Shapes::objects`).
+pub fn load_shapes(
+    meshes: &[MeshDesc],
+    _warnings: &mut Vec<String>,
+) -> Result<(Shapes, Vec<Surface>)> {
+    let mut parts = Vec::with_capacity(meshes.len());
+    let mut surfaces = Vec::with_capacity(meshes.len());
+    let mut cache = Vec::new();
+    for (i, m) in meshes.iter().enumerate() {
+        let context = |e: Error| e.context(format!("[[mesh]] {} {}", i + 1, m.label()));
+        parts.push(load_mesh(m).map_err(context)?);
+        surfaces.push(load_surface(m, &mut cache).map_err(context)?);
     }
-    // Surfaces are not shaded yet: what the camera sees of an ordinary
-    // mesh is a hole, as a holdout's.
-    let shown: Vec<String> = meshes
-        .iter()
-        .filter(|m| !m.holdout && !m.shadow_catcher && m.visibility.camera)
-        .map(|m| m.label())
-        .collect();
-    if !shown.is_empty() {
-        warnings.push(format!(
-            "surfaces are not shaded yet: {} {} as a holdout where the camera sees {} (colour and alpha 0, as holdout = true); set visibility = {{ camera = false }} to keep only {} shadow",
-            shown.join(", "),
-            if shown.len() == 1 { "renders" } else { "render" },
-            if shown.len() == 1 { "it" } else { "them" },
-            if shown.len() == 1 { "its" } else { "their" },
-        ));
-    }
-    Ok(Shapes::new(parts))
+    Ok((Shapes::new(parts), surfaces))
 }
 
 /// The camera a scene describes; `boxes` are the volumes' world boxes
@@ -729,7 +761,7 @@ impl World {
                 )))
             }
         };
-        let shapes = load_shapes(&desc.meshes, &mut warnings)?;
+        let (shapes, surfaces) = load_shapes(&desc.meshes, &mut warnings)?;
         let r = &desc.render;
         let c = &desc.camera;
         let media = Media::new(volumes);
@@ -751,6 +783,7 @@ impl World {
             environment,
             media,
             shapes,
+            surfaces,
             film_transparent: r.film_transparent,
             warnings,
             load_seconds: t0.elapsed().as_secs_f64(),

@@ -18,6 +18,7 @@ mod exr_io;
 mod metrics;
 mod png_io;
 mod sidebyside;
+pub mod texture;
 mod view;
 
 use std::path::PathBuf;

@@ -163,3 +163,80 @@ pub fn direct_light(
     }
     l
 }
+
+/// Light arriving at surface point `hit` from `sources` along each one's
+/// sample, times the BSDF and |cos θ| with the shading normal, the
+/// media's transmittance and the shadows of the meshes: next-event
+/// estimation at a surface (pbrt-v4's `SampleLd` for a `SurfaceInteraction`).
+/// `wo` is in `frame` (the shading frame). Lights a BSDF-sampled ray can
+/// also hit (finite suns, an environment map) are weighted by the power
+/// heuristic against BSDF sampling. Only light from the side the ray came
+/// from counts: the BSDFs reflect and do not transmit.
+#[allow(clippy::too_many_arguments)]
+pub fn direct_light_surface(
+    world: &World,
+    hit: &crate::shape::Hit,
+    frame: &crate::surface::Frame,
+    bsdf: &crate::bsdf::Bsdf,
+    wo: Vec3,
+    time: f32,
+    sources: Sources,
+    rng: &mut Rng,
+) -> Rgb {
+    let media = &world.media;
+    let p = hit.spawn(hit.n);
+    let mut l = Rgb::ZERO;
+    // The BSDF times |cos| for a world direction, and its pdf.
+    let eval = |wi: Vec3| -> Option<(Rgb, f32)> {
+        if wi.dot(hit.n) <= 0.0 {
+            return None;
+        }
+        let wl = frame.to_local(wi);
+        let f = bsdf.f(wo, wl).sum() * wl.z.abs();
+        (f.max_element() > 0.0).then(|| (f, bsdf.pdf(wo, wl)))
+    };
+    for light in sources.lights_of(world) {
+        let u = rng.next_vec2();
+        let Some(ls) = light.sample_li(p, u) else {
+            continue;
+        };
+        if ls.li.max_element() <= 0.0 {
+            continue;
+        }
+        let Some((f, bsdf_pdf)) = eval(ls.wi) else {
+            continue;
+        };
+        if world.shapes.occluded(p, ls.wi, ls.dist, RayKind::SHADOW) {
+            continue;
+        }
+        let tr = tracking::transmittance(media, &Ray::at_time(p, ls.wi, time), ls.dist, rng);
+        if tr.max_element() <= 0.0 {
+            continue;
+        }
+        let w = if ls.is_delta {
+            1.0
+        } else {
+            power_heuristic(1, ls.pdf, 1, bsdf_pdf)
+        };
+        l += ls.li * tr * f * (w / ls.pdf);
+    }
+    if sources.environment == EnvLight::Sampled && !world.environment.is_black() {
+        if let Some((wi, le, pdf)) = world.environment.sample(rng.next_vec2()) {
+            if pdf > 0.0 && le.max_element() > 0.0 {
+                if let Some((f, bsdf_pdf)) = eval(wi) {
+                    if !world.shapes.occluded(p, wi, f32::INFINITY, RayKind::SHADOW) {
+                        let tr = tracking::transmittance(
+                            media,
+                            &Ray::at_time(p, wi, time),
+                            f32::INFINITY,
+                            rng,
+                        );
+                        let w = power_heuristic(1, pdf, 1, bsdf_pdf);
+                        l += le * tr * f * (w / pdf);
+                    }
+                }
+            }
+        }
+    }
+    l
+}

@@ -23,13 +23,14 @@
 //! - Russian roulette after three scattering events once the throughput is
 //!   below [`RR_THRESHOLD`]; `max_bounces` real scattering events at most.
 
-use super::nee::{direct_light, EnvLight, Sources};
+use super::nee::{direct_light, direct_light_surface, EnvLight, Sources};
 use super::{catcher, Integrator, SampleKey, SampleResult};
 use crate::film::CatcherSample;
 use crate::light::Light;
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, roulette, Rng};
 use crate::shape::RayKind;
+use crate::surface::Frame;
 use crate::tracking::{self, sample_t_maj, Collision};
 use crate::world::World;
 use crate::Rgb;
@@ -78,7 +79,7 @@ pub const REGISTRATION: super::Registration = super::Registration {
 };
 
 /// Scattering events after which Russian roulette starts.
-const RR_DEPTH: u32 = 3;
+pub const RR_DEPTH: u32 = 3;
 
 /// Throughput below which Russian roulette plays: a path survives with
 /// probability β/RR_THRESHOLD and goes on with β = RR_THRESHOLD. pbrt-v4
@@ -211,8 +212,10 @@ pub fn trace_from(
     let mut beta = Rgb::ONE;
     let mut ray_o = ray.o;
     let mut ray_d = ray.d;
-    let mut depth = 0u32; // real scattering events so far
+    let mut depth = 0u32; // real scattering events (volume or surface) so far
     let mut last_phase_pdf = 0.0f32;
+    // The kind of the next ray: the start's, then what scattered it.
+    let mut kind = start.kind();
     loop {
         let mut scattered = false;
         let mut terminated = false;
@@ -221,11 +224,6 @@ pub fn trace_from(
         let mut new_pdf = 0.0;
         let segment = Ray::at_time(ray_o, ray_d, time);
         let first_flight = depth == 0;
-        let kind = if first_flight {
-            start.kind()
-        } else {
-            RayKind::VOLUME_SCATTER
-        };
         let hit = world.shapes.intersect(ray_o, ray_d, f32::INFINITY, kind);
         let t_max = hit.map_or(f32::INFINITY, |h| h.t);
         let on_collision = |c: &Collision, rng: &mut Rng| {
@@ -310,10 +308,68 @@ pub fn trace_from(
         if terminated || (!scattered && !left) {
             break;
         }
-        if !scattered && hit.is_some() {
-            // The flight reached a surface: the path ends there (surfaces
-            // are not shaded yet).
-            break;
+        if let (false, Some(h)) = (scattered, hit) {
+            // The flight reached a surface. A camera ray's holdout or
+            // shadow catcher is a hole in the image; any other surface
+            // is shaded.
+            let flags = world.shapes.object(h.object).flags;
+            if first_flight && start == Start::Camera {
+                if flags.holdout || flags.shadow_catcher {
+                    break;
+                }
+                // An opaque surface: the camera sees nothing through it.
+                res.transmittance = 0.0;
+            }
+            let sh = world.shapes.shading(&h);
+            let sp = world.surfaces[h.object as usize].at(sh.uv);
+            if !env_only && sp.emission.max_element() > 0.0 {
+                let e = beta * sp.emission;
+                res.l += e;
+                res.emission += e;
+            }
+            let Some(bsdf) = sp.bsdf else {
+                break;
+            };
+            depth += 1;
+            if depth > max_bounces {
+                break;
+            }
+            let frame = Frame::from_normal(sh.n);
+            let wo = frame.to_local(-ray_d);
+            if sampled {
+                let ld = beta
+                    * direct_light_surface(world, &h, &frame, &bsdf, wo, time, sources, rng);
+                res.l += ld;
+                if depth == 1 {
+                    res.direct += ld;
+                } else {
+                    res.indirect += ld;
+                }
+            }
+            let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
+                break;
+            };
+            let wi = frame.to_world(bs.wi);
+            // Reflection only, to the side the ray came from.
+            if bs.pdf <= 0.0 || wi.dot(h.n) <= 0.0 {
+                break;
+            }
+            beta *= bs.f.sum() * (bs.wi.z.abs() / bs.pdf);
+            ray_o = h.spawn(wi);
+            ray_d = wi;
+            last_phase_pdf = bs.pdf;
+            kind = if bs.glossy {
+                RayKind::GLOSSY
+            } else {
+                RayKind::DIFFUSE
+            };
+            if depth >= RR_DEPTH && !roulette(&mut beta, RR_THRESHOLD, rng) {
+                break;
+            }
+            if !beta.is_finite() {
+                break;
+            }
+            continue;
         }
         if !scattered {
             // The path left every volume.
@@ -337,6 +393,7 @@ pub fn trace_from(
         ray_o = new_o;
         ray_d = new_dir;
         last_phase_pdf = new_pdf;
+        kind = RayKind::VOLUME_SCATTER;
         // Russian roulette on the throughput itself: survivors go on with
         // β = RR_THRESHOLD, so weights stay bounded (a floor on the
         // termination probability would let them grow without bound).

@@ -836,10 +836,10 @@ impl Integrator for PhotonIntegrator {
     }
 
     fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, _key: SampleKey) -> SampleResult {
-        let (mut res, hit) = STEPS.with(|s| {
+        let (mut res, hit, tr) = STEPS.with(|s| {
             let mut steps = s.borrow_mut();
             steps.clear();
-            self.march(world, ray, rng, &mut steps)
+            self.march(world, ray, RayKind::CAMERA, rng, &mut steps)
         });
         if let Some(sources) = self.sky_paths {
             // The environment's light, from a path at a share of the
@@ -865,6 +865,15 @@ impl Integrator for PhotonIntegrator {
             // A shadow catcher: its estimate, weighted as alpha is by the
             // transmittance up to it (0 where the march ended first).
             let flags = world.shapes.object(h.object).flags;
+            if !flags.holdout && !flags.shadow_catcher {
+                // Any other surface is shaded, and opaque.
+                res.transmittance = 0.0;
+                if tr.max_element() > 0.0 {
+                    let s = tr * self.surface_light(world, &h, ray.d, ray.time, 0, rng);
+                    res.l += s;
+                    res.indirect += s;
+                }
+            }
             if flags.shadow_catcher && !flags.holdout {
                 res.catcher = Some(if res.transmittance > 0.0 {
                     super::catcher::estimate(world, &h, ray.time, rng, |r, rng| {
@@ -975,22 +984,27 @@ impl Integrator for PhotonIntegrator {
 }
 
 impl PhotonIntegrator {
-    /// The march of one camera ray; see the module docs. It stops at the
-    /// first surface the camera sees, which it returns.
+    /// The march of one ray of `kind` (a camera ray, or a gather ray from
+    /// a surface); see the module docs. It stops at the first surface the
+    /// ray sees, which it returns with the transmittance up to there. What
+    /// lies beyond the media (the world) counts for a camera ray unless
+    /// the film is transparent, and for a gather ray unless camera paths
+    /// carry the world's light (`sky_paths`).
     fn march(
         &self,
         world: &World,
         ray: &Ray,
+        kind: RayKind,
         rng: &mut Rng,
         steps: &mut Vec<MarchStep>,
-    ) -> (SampleResult, Option<Hit>) {
+    ) -> (SampleResult, Option<Hit>, Rgb) {
         let Ray { o, d, time } = *ray;
         let media = &world.media;
         let mut res = SampleResult::default();
         let mut tr = Rgb::ONE;
         let mut ended = false;
         let jitter = rng.next_f32();
-        let hit = world.shapes.intersect(o, d, f32::INFINITY, RayKind::CAMERA);
+        let hit = world.shapes.intersect(o, d, f32::INFINITY, kind);
         let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
         media.for_each_segment_at(o, d, 0.0, t_hit, time, |seg| {
             if seg.max_density <= 0.0 && seg.emission <= 0.0 {
@@ -1113,17 +1127,98 @@ impl PhotonIntegrator {
             None => {}
         }
         res.l = res.direct + res.indirect + res.emission;
-        if !ended {
+        if ended {
+            tr = Rgb::ZERO;
+        } else {
             // What the ray sees beyond the media: the world, unless a
-            // surface stops it (a hole: surfaces are not shaded yet) or
-            // the film is transparent.
-            if hit.is_none() && !world.film_transparent {
+            // surface stops it.
+            let world_seen = if kind == RayKind::CAMERA {
+                !world.film_transparent
+            } else {
+                self.sky_paths.is_none()
+            };
+            if hit.is_none() && world_seen {
                 let le = world.environment.le(d);
                 res.l += tr * le;
             }
             res.transmittance = (tr.x + tr.y + tr.z) / 3.0;
         }
-        (res, hit)
+        (res, hit, tr)
+    }
+
+    /// The light leaving surface point `hit` towards `-d` (a ray of
+    /// direction `d` met it after `depth` surface bounces): its emission,
+    /// next-event estimation of the lights (and an environment map the
+    /// photons carry), and a BSDF-sampled gather ray, marched as a camera
+    /// ray is (single scattering, the photon map, emission) and shaded
+    /// again where it meets another surface (Russian roulette after
+    /// `RR_DEPTH` bounces, `max_bounces` at most). The world's light when
+    /// camera paths carry it (`sky_paths`) is theirs, not this.
+    fn surface_light(
+        &self,
+        world: &World,
+        hit: &Hit,
+        d: Vec3,
+        time: f32,
+        depth: u32,
+        rng: &mut Rng,
+    ) -> Rgb {
+        let mut l = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let (mut hit, mut d, mut depth) = (*hit, d, depth);
+        let sources = if self.sky_paths.is_some() {
+            Sources::LIGHTS
+        } else {
+            Sources::ALL
+        };
+        loop {
+            let sh = world.shapes.shading(&hit);
+            let sp = world.surfaces[hit.object as usize].at(sh.uv);
+            l += beta * sp.emission;
+            let Some(bsdf) = sp.bsdf else {
+                return l;
+            };
+            depth += 1;
+            if depth > self.max_bounces {
+                return l;
+            }
+            let frame = crate::surface::Frame::from_normal(sh.n);
+            let wo = frame.to_local(-d);
+            l += beta * super::nee::direct_light_surface(
+                world, &hit, &frame, &bsdf, wo, time, sources, rng,
+            );
+            let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
+                return l;
+            };
+            let wi = frame.to_world(bs.wi);
+            if bs.pdf <= 0.0 || wi.dot(hit.n) <= 0.0 {
+                return l;
+            }
+            beta *= bs.f.sum() * (bs.wi.z.abs() / bs.pdf);
+            if depth >= super::path::RR_DEPTH && !roulette(&mut beta, super::path::RR_THRESHOLD, rng) {
+                return l;
+            }
+            let kind = if bs.glossy {
+                RayKind::GLOSSY
+            } else {
+                RayKind::DIFFUSE
+            };
+            let gather = Ray::at_time(hit.spawn(wi), wi, time);
+            let (r, next, tr) = STEPS.with(|s| {
+                let mut steps = s.borrow_mut();
+                steps.clear();
+                self.march(world, &gather, kind, rng, &mut steps)
+            });
+            l += beta * r.l;
+            match next {
+                Some(h) if tr.max_element() > 0.0 => {
+                    beta *= tr;
+                    hit = h;
+                    d = wi;
+                }
+                _ => return l,
+            }
+        }
     }
 }
 

@@ -259,22 +259,23 @@ fn trace_one(
         return flight;
     }
     let mut collisions = 0u32;
+    // Surface bounces so far: light that reflected off a surface is no
+    // longer what the march's single scattering computes, so it is stored
+    // from its first collision in a volume on.
+    let mut bounces = 0u32;
+    // Light on its way from a light is what shadow rays carry; once
+    // scattered in a volume, or emitted by the media, volume-scatter rays;
+    // once reflected, diffuse or glossy rays (Blender's ray visibility).
+    let mut kind = if e.from_media {
+        RayKind::VOLUME_SCATTER
+    } else {
+        RayKind::SHADOW
+    };
     loop {
         let mut next: Option<(Vec3, Vec3)> = None;
-        // Light on its way from a light is what shadow rays carry; once
-        // scattered, or emitted by the media, volume-scatter rays (Blender's
-        // ray visibility). A surface ends the photon (surfaces are not
-        // shaded yet: they absorb).
-        let kind = if collisions == 0 && !e.from_media {
-            RayKind::SHADOW
-        } else {
-            RayKind::VOLUME_SCATTER
-        };
-        let t_max = world
-            .shapes
-            .intersect(o, d, f32::INFINITY, kind)
-            .map_or(f32::INFINITY, |h| h.t);
-        sample_t_maj(media, &Ray::at_time(o, d, time), t_max, rng, |c, rng| {
+        let hit = world.shapes.intersect(o, d, f32::INFINITY, kind);
+        let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+        let reached = sample_t_maj(media, &Ray::at_time(o, d, time), t_max, rng, |c, rng| {
             let Some(step) = collide(c, power, rng) else {
                 return false;
             };
@@ -289,7 +290,7 @@ fn trace_one(
             flight.collisions += 1;
             flight.scattered = 1;
             flight.media_scattered = e.from_media as u64;
-            if collisions >= 2 || e.from_media {
+            if collisions >= 2 || bounces > 0 || e.from_media {
                 flight.eligible += 1;
                 let w = store.weight(c.p);
                 flight.weight += w as f64;
@@ -313,10 +314,44 @@ fn trace_one(
             }
             false
         });
-        match next {
-            Some((p, nd)) if power.is_finite() => {
+        match (next, hit) {
+            (Some((p, nd)), _) if power.is_finite() => {
                 o = p;
                 d = nd;
+                kind = RayKind::VOLUME_SCATTER;
+            }
+            // The flight reached a surface: the photon reflects, its power
+            // times the BSDF's weight, and goes on with Russian roulette
+            // against its starting power, as at a collision.
+            (None, Some(h)) if reached && power.is_finite() => {
+                bounces += 1;
+                if collisions + bounces > max_bounces {
+                    return flight;
+                }
+                let sh = world.shapes.shading(&h);
+                let Some(bsdf) = world.surfaces[h.object as usize].at(sh.uv).bsdf else {
+                    return flight;
+                };
+                let frame = crate::surface::Frame::from_normal(sh.n);
+                let wo = frame.to_local(-d);
+                let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
+                    return flight;
+                };
+                let wi = frame.to_world(bs.wi);
+                if bs.pdf <= 0.0 || wi.dot(h.n) <= 0.0 {
+                    return flight;
+                }
+                power *= bs.f.sum() * (bs.wi.z.abs() / bs.pdf);
+                if !roulette(&mut power, threshold, rng) {
+                    return flight;
+                }
+                o = h.spawn(wi);
+                d = wi;
+                kind = if bs.glossy {
+                    RayKind::GLOSSY
+                } else {
+                    RayKind::DIFFUSE
+                };
             }
             _ => return flight,
         }

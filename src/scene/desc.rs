@@ -456,6 +456,74 @@ pub struct MeshDesc {
     pub shadow_catcher: bool,
     /// Blender's Object > Visibility > Ray Visibility (`visibility`).
     pub visibility: RayVisibility,
+    /// Its material's surface shader (`[mesh.material]`); `None`: no
+    /// material, which Cycles renders as its default surface (a Diffuse
+    /// BSDF of colour 0.8).
+    pub material: Option<SurfaceDesc>,
+}
+
+/// `[mesh.material]`: a surface shader of Blender's, with its names and
+/// defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SurfaceDesc {
+    /// The Principled BSDF as artists leave it for grounds and props.
+    Principled(PrincipledBsdf),
+    /// The Diffuse BSDF: Lambert, or Oren–Nayar when `roughness` > 0.
+    Diffuse { color: ColorInput, roughness: f32 },
+    /// The Emission shader: radiance `color` × `strength`, both sides.
+    Emission { color: ColorInput, strength: f32 },
+}
+
+/// A colour input: a constant, or an Image Texture through the mesh's UV
+/// map.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ColorInput {
+    Value(Rgb),
+    Texture {
+        /// Resolved against the scene file's directory.
+        file: PathBuf,
+        colorspace: TextureColorSpace,
+    },
+}
+
+/// How an image's stored values become linear (Blender's Image › Color
+/// Space).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TextureColorSpace {
+    /// Blender's sRGB.
+    #[default]
+    Srgb,
+    /// Blender's Linear Rec.709 and Non-Color: values as stored.
+    Linear,
+}
+
+/// The Principled BSDF's inputs that vdbphoton shades (Blender 4/5 names
+/// and defaults).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrincipledBsdf {
+    pub base_color: ColorInput,
+    pub roughness: f32,
+    pub metallic: f32,
+    pub ior: f32,
+    pub specular_ior_level: f32,
+    pub specular_tint: Rgb,
+    pub emission_color: Rgb,
+    pub emission_strength: f32,
+}
+
+impl Default for PrincipledBsdf {
+    fn default() -> Self {
+        Self {
+            base_color: ColorInput::Value(Rgb::splat(0.8)),
+            roughness: 0.5,
+            metallic: 0.0,
+            ior: 1.5,
+            specular_ior_level: 0.5,
+            specular_tint: Rgb::ONE,
+            emission_color: Rgb::ONE,
+            emission_strength: 0.0,
+        }
+    }
 }
 
 /// Which kinds of rays see an object (Blender's ray visibility; all of

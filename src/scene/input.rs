@@ -15,8 +15,9 @@ use serde::Deserialize;
 
 use super::desc::{
     affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, DenoiseQuality, EnvironmentDesc,
-    LightDesc, MaterialDesc, MeshDesc, MotionBlurDesc, Param, Params, PhaseDesc, Principled,
-    RayVisibility, RenderDesc, SceneDesc, ShutterPosition, VelocityUnit, VolumeDesc,
+    ColorInput, LightDesc, MaterialDesc, MeshDesc, MotionBlurDesc, Param, Params, PhaseDesc,
+    Principled, PrincipledBsdf, RayVisibility, RenderDesc, SceneDesc, ShutterPosition,
+    SurfaceDesc, TextureColorSpace, VelocityUnit, VolumeDesc,
 };
 use super::desc::{CameraPose, Lens, SensorFit, VolumeBounds, AUTO_VIEW_DIRECTION};
 use super::error::{kp, PathSeg, ValidationError};
@@ -374,6 +375,48 @@ struct MeshIn {
     holdout: Option<bool>,
     shadow_catcher: Option<bool>,
     visibility: Option<VisibilityIn>,
+    material: Option<SurfaceIn>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum SurfaceKind {
+    Principled,
+    Diffuse,
+    Emission,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct SurfaceIn {
+    #[serde(rename = "type")]
+    kind: Option<SurfaceKind>,
+    base_color: Option<Splat3>,
+    base_color_texture: Option<TextureIn>,
+    roughness: Option<f64>,
+    metallic: Option<f64>,
+    ior: Option<f64>,
+    specular_ior_level: Option<f64>,
+    specular_tint: Option<Splat3>,
+    emission_color: Option<Splat3>,
+    emission_strength: Option<f64>,
+    color: Option<Splat3>,
+    color_texture: Option<TextureIn>,
+    strength: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+struct TextureIn {
+    file: String,
+    colorspace: Option<ColorSpaceIn>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum ColorSpaceIn {
+    Srgb,
+    Linear,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -951,6 +994,127 @@ impl MeshIn {
                 glossy: v.glossy.unwrap_or(d.glossy),
                 transmission: v.transmission.unwrap_or(d.transmission),
                 volume_scatter: v.volume_scatter.unwrap_or(d.volume_scatter),
+            },
+            material: match self.material {
+                Some(m) => Some(m.into_desc(base, &with(path, "material"))?),
+                None => None,
+            },
+        })
+    }
+}
+
+impl TextureIn {
+    fn into_desc(self, base: &Path, path: &[PathSeg]) -> Conv<ColorInput> {
+        Ok(ColorInput::Texture {
+            file: resolve(base, &self.file, with(path, "file"))?,
+            colorspace: match self.colorspace {
+                None | Some(ColorSpaceIn::Srgb) => TextureColorSpace::Srgb,
+                Some(ColorSpaceIn::Linear) => TextureColorSpace::Linear,
+            },
+        })
+    }
+}
+
+impl SurfaceIn {
+    fn present_keys(&self) -> Vec<&'static str> {
+        let mut keys = Vec::new();
+        let mut add = |present: bool, key| {
+            if present {
+                keys.push(key)
+            }
+        };
+        add(self.base_color.is_some(), "base_color");
+        add(self.base_color_texture.is_some(), "base_color_texture");
+        add(self.roughness.is_some(), "roughness");
+        add(self.metallic.is_some(), "metallic");
+        add(self.ior.is_some(), "ior");
+        add(self.specular_ior_level.is_some(), "specular_ior_level");
+        add(self.specular_tint.is_some(), "specular_tint");
+        add(self.emission_color.is_some(), "emission_color");
+        add(self.emission_strength.is_some(), "emission_strength");
+        add(self.color.is_some(), "color");
+        add(self.color_texture.is_some(), "color_texture");
+        add(self.strength.is_some(), "strength");
+        keys
+    }
+
+    fn into_desc(self, base: &Path, path: &[PathSeg]) -> Conv<SurfaceDesc> {
+        let kind = self.kind.unwrap_or(SurfaceKind::Principled);
+        let (name, allowed): (&str, &[&str]) = match kind {
+            SurfaceKind::Principled => (
+                "principled",
+                &[
+                    "base_color",
+                    "base_color_texture",
+                    "roughness",
+                    "metallic",
+                    "ior",
+                    "specular_ior_level",
+                    "specular_tint",
+                    "emission_color",
+                    "emission_strength",
+                ],
+            ),
+            SurfaceKind::Diffuse => ("diffuse", &["color", "color_texture", "roughness"]),
+            SurfaceKind::Emission => ("emission", &["color", "color_texture", "strength"]),
+        };
+        if let Some(bad) = self
+            .present_keys()
+            .into_iter()
+            .find(|k| !allowed.contains(k))
+        {
+            return Err(ValidationError::new(
+                with(path, bad),
+                format!(
+                    "not a key of a \"{name}\" surface (expected one of: type, {})",
+                    allowed.join(", ")
+                ),
+            ));
+        }
+        let color = |value: Option<Splat3>,
+                     texture: Option<TextureIn>,
+                     key: &str,
+                     default: Rgb|
+         -> Conv<ColorInput> {
+            match (value, texture) {
+                (Some(_), Some(_)) => Err(ValidationError::new(
+                    with(path, &format!("{key}_texture")),
+                    format!("give either '{key}' or '{key}_texture', not both"),
+                )),
+                (_, Some(t)) => t.into_desc(base, &with(path, &format!("{key}_texture"))),
+                (v, None) => Ok(ColorInput::Value(v.map_or(default, rgb))),
+            }
+        };
+        let f = |v: Option<f64>, d: f32| v.map_or(d, |v| v as f32);
+        Ok(match kind {
+            SurfaceKind::Principled => {
+                let d = PrincipledBsdf::default();
+                let ColorInput::Value(base_default) = d.base_color else {
+                    unreachable!("the default base colour is a value")
+                };
+                SurfaceDesc::Principled(PrincipledBsdf {
+                    base_color: color(
+                        self.base_color,
+                        self.base_color_texture,
+                        "base_color",
+                        base_default,
+                    )?,
+                    roughness: f(self.roughness, d.roughness),
+                    metallic: f(self.metallic, d.metallic),
+                    ior: f(self.ior, d.ior),
+                    specular_ior_level: f(self.specular_ior_level, d.specular_ior_level),
+                    specular_tint: self.specular_tint.map_or(d.specular_tint, rgb),
+                    emission_color: self.emission_color.map_or(d.emission_color, rgb),
+                    emission_strength: f(self.emission_strength, d.emission_strength),
+                })
+            }
+            SurfaceKind::Diffuse => SurfaceDesc::Diffuse {
+                color: color(self.color, self.color_texture, "color", Rgb::splat(0.8))?,
+                roughness: f(self.roughness, 0.0),
+            },
+            SurfaceKind::Emission => SurfaceDesc::Emission {
+                color: color(self.color, self.color_texture, "color", Rgb::ONE)?,
+                strength: f(self.strength, 1.0),
             },
         })
     }

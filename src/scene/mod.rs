@@ -34,6 +34,7 @@ pub use desc::{
     Param, Params, PhaseDesc, Principled, RayVisibility, RenderDesc, SceneDesc, SensorFit,
     ShutterPosition, VelocityUnit, VolumeBounds, VolumeDesc, AUTO_INTEGRATOR, AUTO_VIEW_DIRECTION,
 };
+pub use desc::{ColorInput, PrincipledBsdf, SurfaceDesc, TextureColorSpace};
 pub use error::{PathSeg, SceneError, ValidationError};
 pub use validate::{MAX_PIXELS, MAX_SHUTTER};
 

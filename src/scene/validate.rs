@@ -212,6 +212,9 @@ impl SceneDesc {
                     "is singular (a zero scale or degenerate matrix)",
                 );
             }
+            if let Some(m) = &mesh.material {
+                validate_surface(&with(&path, "material"), m)?;
+            }
         }
         if self.volumes.is_empty() {
             return err(vec![], "no [[volume]]: a scene needs at least one volume");
@@ -479,6 +482,43 @@ fn validate_material(path: &[PathSeg], material: &MaterialDesc) -> Check {
                     }
                 }
             }
+        }
+    }
+}
+
+fn validate_color(path: &[PathSeg], key: &str, c: &super::desc::ColorInput) -> Check {
+    match c {
+        super::desc::ColorInput::Value(v) => non_negative3(&with(path, key), *v),
+        super::desc::ColorInput::Texture { .. } => Ok(()),
+    }
+}
+
+/// Ranges as Blender's sockets have them.
+fn validate_surface(path: &[PathSeg], m: &super::desc::SurfaceDesc) -> Check {
+    use super::desc::SurfaceDesc;
+    match m {
+        SurfaceDesc::Principled(p) => {
+            validate_color(path, "base_color", &p.base_color)?;
+            in_range(&with(path, "roughness"), p.roughness, (0.0, true), (1.0, true))?;
+            in_range(&with(path, "metallic"), p.metallic, (0.0, true), (1.0, true))?;
+            in_range(&with(path, "ior"), p.ior, (1.0, true), (1000.0, true))?;
+            in_range(
+                &with(path, "specular_ior_level"),
+                p.specular_ior_level,
+                (0.0, true),
+                (1.0, true),
+            )?;
+            non_negative3(&with(path, "specular_tint"), p.specular_tint)?;
+            non_negative3(&with(path, "emission_color"), p.emission_color)?;
+            non_negative(&with(path, "emission_strength"), p.emission_strength)
+        }
+        SurfaceDesc::Diffuse { color, roughness } => {
+            validate_color(path, "color", color)?;
+            in_range(&with(path, "roughness"), *roughness, (0.0, true), (1.0, true))
+        }
+        SurfaceDesc::Emission { color, strength } => {
+            validate_color(path, "color", color)?;
+            non_negative(&with(path, "strength"), *strength)
         }
     }
 }

@@ -19,7 +19,7 @@
 //! ([`Hit::spawn`]), scaled to the coordinates' magnitude, so that they do
 //! not hit the triangle they left.
 
-use glam::{Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::cwbvh::CwBvh;
@@ -116,6 +116,50 @@ pub struct Hit {
     pub n: Vec3,
     /// The object hit ([`Shapes::object`]).
     pub object: u32,
+    /// The triangle hit, in its object's [`Geometry`].
+    pub prim: u32,
+    /// Barycentric coordinates of `p` in it (of its second and third
+    /// vertices).
+    pub bary: Vec2,
+}
+
+/// A placed mesh's triangles in world space, and what shading reads at a
+/// point of them: normals (world space, one per vertex, or none: the face
+/// normal) and texture coordinates (one per vertex, or none).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Geometry {
+    pub positions: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+}
+
+impl Geometry {
+    /// Triangles given by their corners, without normals or texture
+    /// coordinates.
+    pub fn from_triangles(t: &[[Vec3; 3]]) -> Geometry {
+        Geometry {
+            positions: t.iter().flatten().copied().collect(),
+            triangles: (0..t.len() as u32)
+                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+                .collect(),
+            ..Geometry::default()
+        }
+    }
+
+    /// Bytes kept for shading.
+    fn shading_bytes(&self) -> usize {
+        self.triangles.capacity() * 12 + self.normals.capacity() * 12 + self.uvs.capacity() * 8
+    }
+}
+
+/// What shading needs at a [`Hit`]: the shading normal (interpolated from
+/// the vertices' normals, on the side the ray came from; the geometric
+/// normal where the mesh has none) and the texture coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shading {
+    pub n: Vec3,
+    pub uv: Vec2,
 }
 
 impl Hit {
@@ -142,13 +186,15 @@ struct Set {
     triangles: Vec<Triangle>,
     /// The object of each of `triangles`.
     object_of: Vec<u32>,
+    /// The index of each of `triangles` in its object's geometry.
+    prim_of: Vec<u32>,
     /// The box around every triangle, for a test before the traversal.
     lo: Vec3A,
     hi: Vec3A,
 }
 
 impl Set {
-    fn new(tris: &[Triangle], owner: &[u32]) -> Set {
+    fn new(tris: &[Triangle], owner: &[u32], prims: &[u32]) -> Set {
         // Each triangle's box padded by a little more than float precision
         // at its coordinates: a flat box (a ground plane's) seen edge-on or
         // along an axis gives an empty interval to the traversal's node
@@ -179,6 +225,11 @@ impl Set {
             .iter()
             .map(|&i| owner[i as usize])
             .collect();
+        let prim_of = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| prims[i as usize])
+            .collect();
         let (mut lo, mut hi) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
         for b in &boxes {
             lo = lo.min(b.min);
@@ -188,6 +239,7 @@ impl Set {
             bvh,
             triangles,
             object_of,
+            prim_of,
             lo,
             hi,
         }
@@ -208,6 +260,7 @@ impl Set {
     fn memory_bytes(&self) -> usize {
         self.triangles.capacity() * std::mem::size_of::<Triangle>()
             + self.object_of.capacity() * 4
+            + self.prim_of.capacity() * 4
             + self.bvh.nodes.capacity() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
             + self.bvh.primitive_indices.capacity() * 4
     }
@@ -255,6 +308,20 @@ fn intersect_triangle(tri: &Triangle, o: Vec3A, d: Vec3A, t_max: f32) -> f32 {
     }
 }
 
+/// The barycentric coordinates (of `v1` and `v2`) where the ray `o + t d`
+/// meets the plane of `tri` (Möller–Trumbore's u and v).
+#[inline]
+fn barycentric(tri: &Triangle, o: Vec3A, d: Vec3A) -> Vec2 {
+    let e1 = tri.v1 - tri.v0;
+    let e2 = tri.v2 - tri.v0;
+    let p = d.cross(e2);
+    let inv = 1.0 / e1.dot(p);
+    let s = o - tri.v0;
+    let u = s.dot(p) * inv;
+    let v = d.dot(s.cross(e1)) * inv;
+    Vec2::new(u, v).clamp(Vec2::ZERO, Vec2::ONE)
+}
+
 /// The kinds of rays, in the order of [`Shapes`]' table.
 const KINDS: [RayKind; 6] = [
     RayKind::CAMERA,
@@ -272,6 +339,8 @@ const KINDS: [RayKind; 6] = [
 #[derive(Default)]
 pub struct Shapes {
     objects: Vec<Object>,
+    /// Each object's normals and texture coordinates, for shading.
+    geometry: Vec<Geometry>,
     /// The BVHs, one per distinct set of visible objects.
     sets: Vec<Set>,
     /// For each of [`KINDS`], its BVH in `sets` (none when it sees no
@@ -303,8 +372,8 @@ impl Shapes {
         Shapes::default()
     }
 
-    /// The objects and their world-space triangles.
-    pub fn new(parts: Vec<(Object, Vec<[Vec3; 3]>)>) -> Shapes {
+    /// The objects and their world-space geometry.
+    pub fn new(parts: Vec<(Object, Geometry)>) -> Shapes {
         let objects: Vec<Object> = parts.iter().map(|p| p.0.clone()).collect();
         let catcher = objects.iter().any(|o| o.flags.shadow_catcher);
         let mut sets = Vec::new();
@@ -316,7 +385,7 @@ impl Shapes {
             let visible: Vec<usize> = parts
                 .iter()
                 .enumerate()
-                .filter(|(_, (o, t))| o.flags.visibility.sees(*kind) && !t.is_empty())
+                .filter(|(_, (o, g))| o.flags.visibility.sees(*kind) && !g.triangles.is_empty())
                 .map(|(i, _)| i)
                 .collect();
             if visible.is_empty() {
@@ -328,25 +397,66 @@ impl Shapes {
             }
             let mut tris = Vec::new();
             let mut owner = Vec::new();
+            let mut prims = Vec::new();
             for &i in &visible {
-                let t = &parts[i].1;
-                tris.extend(t.iter().map(|v| Triangle {
-                    v0: v[0].into(),
-                    v1: v[1].into(),
-                    v2: v[2].into(),
+                let g = &parts[i].1;
+                tris.extend(g.triangles.iter().map(|t| {
+                    let [a, b, c] = t.map(|k| Vec3A::from(g.positions[k as usize]));
+                    Triangle {
+                        v0: a,
+                        v1: b,
+                        v2: c,
+                    }
                 }));
-                owner.extend(std::iter::repeat_n(i as u32, t.len()));
+                owner.extend(std::iter::repeat_n(i as u32, g.triangles.len()));
+                prims.extend(0..g.triangles.len() as u32);
             }
-            sets.push(Set::new(&tris, &owner));
+            sets.push(Set::new(&tris, &owner, &prims));
             of_kind[k] = Some(seen.len() as u8);
             seen.push(visible);
         }
+        let geometry = parts
+            .into_iter()
+            .map(|(_, g)| Geometry {
+                positions: Vec::new(),
+                ..g
+            })
+            .collect();
         Shapes {
             objects,
+            geometry,
             sets,
             of_kind,
             catcher,
         }
+    }
+
+    /// The shading normal and texture coordinates at `hit`.
+    #[inline]
+    pub fn shading(&self, hit: &Hit) -> Shading {
+        let g = &self.geometry[hit.object as usize];
+        let t = g.triangles[hit.prim as usize].map(|k| k as usize);
+        let (b1, b2) = (hit.bary.x, hit.bary.y);
+        let b0 = 1.0 - b1 - b2;
+        let n = if g.normals.is_empty() {
+            hit.n
+        } else {
+            let n = (g.normals[t[0]] * b0 + g.normals[t[1]] * b1 + g.normals[t[2]] * b2)
+                .normalize_or_zero();
+            if n == Vec3::ZERO {
+                hit.n
+            } else if n.dot(hit.n) < 0.0 {
+                -n
+            } else {
+                n
+            }
+        };
+        let uv = if g.uvs.is_empty() {
+            Vec2::ZERO
+        } else {
+            g.uvs[t[0]] * b0 + g.uvs[t[1]] * b1 + g.uvs[t[2]] * b2
+        };
+        Shading { n, uv }
     }
 
     /// Whether no ray can meet a surface.
@@ -372,7 +482,8 @@ impl Shapes {
     }
     /// Bytes the surfaces take.
     pub fn memory_bytes(&self) -> usize {
-        self.sets.iter().map(Set::memory_bytes).sum()
+        self.sets.iter().map(Set::memory_bytes).sum::<usize>()
+            + self.geometry.iter().map(Geometry::shading_bytes).sum::<usize>()
     }
 
     #[inline]
@@ -416,12 +527,15 @@ impl Shapes {
             return None;
         }
         let id = hit.primitive_id as usize;
-        let n = Vec3::from(set.triangles[id].compute_normal());
+        let tri = &set.triangles[id];
+        let n = Vec3::from(tri.compute_normal());
         Some(Hit {
             t: hit.t,
             p: o + d * hit.t,
             n: if n.dot(d) > 0.0 { -n } else { n },
             object: set.object_of[id],
+            prim: set.prim_of[id],
+            bary: barycentric(tri, oa, da),
         })
     }
 
@@ -464,7 +578,7 @@ impl Shapes {
 mod tests {
     use super::*;
 
-    fn square(z: f32, flags: ObjectFlags) -> (Object, Vec<[Vec3; 3]>) {
+    fn square(z: f32, flags: ObjectFlags) -> (Object, Geometry) {
         let (a, b, c, d) = (
             Vec3::new(-1.0, -1.0, z),
             Vec3::new(1.0, -1.0, z),
@@ -477,7 +591,7 @@ mod tests {
                 flags,
                 triangles: 2,
             },
-            vec![[a, b, c], [a, c, d]],
+            Geometry::from_triangles(&[[a, b, c], [a, c, d]]),
         )
     }
 
