@@ -5,6 +5,7 @@
 //! (`src/bin/vdbphoton`) only parses and prints.
 
 pub mod atomic;
+pub mod bsdf;
 pub mod camera;
 pub mod denoise;
 pub mod error;

@@ -26,7 +26,10 @@ const LAYERS: &[(&str, &[&str])] = &[
     ),
     ("data", &["grid", "image", "sequence", "scene", "denoise"]),
     ("files", &["vdb", "generate", "mesh"]),
-    ("optics", &["phase", "light", "medium", "camera", "shape"]),
+    (
+        "optics",
+        &["phase", "light", "medium", "camera", "shape", "bsdf"],
+    ),
     ("world", &["world", "tracking"]),
     ("transport", &["photon", "film"]),
     ("integrators", &["integrator"]),
