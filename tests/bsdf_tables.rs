@@ -21,7 +21,7 @@
 //!
 //! Regenerate with
 //! `cargo test --release --test bsdf_tables -- --ignored regenerate`
-//! (about a minute on two cores).
+//! (about two minutes on two cores).
 
 mod common;
 
