@@ -1,7 +1,8 @@
 """Render flat planes of Blender's Principled BSDF and Diffuse BSDF under a
 sun with Blender 5.0.1 Cycles (the `bpy` module) and write the radiance each
-reflects, for `tests/bsdf.rs` (`surfaces_match_cycles_renders`) to compare
-with f(wo, wi) cos(theta_i) E from `vdbphoton::bsdf`.
+reflects and Cycles' Denoising Albedo pass, for `tests/bsdf.rs`
+(`surfaces_match_cycles_renders`) to compare with f(wo, wi) cos(theta_i) E
+and the albedo guide from `vdbphoton::bsdf`.
 
 Usage:
     VENV/bin/python tools/blender/bsdf_vs_cycles.py OUT.json
@@ -19,6 +20,10 @@ towards the camera, L = f(wo, wi) cos(theta_i) E exactly, with f as Cycles
 evaluates it. Nothing that would bias it is on: no clamping, no adaptive
 sampling, no denoising, Standard view transform; the EXR is linear float32.
 wo and wi are in the plane's frame (z = normal), which here is the world's.
+The Denoising Albedo pass (View Layer > Denoising Data) is as deterministic:
+the diffuse-like closures' albedo estimates seen from wo, or, when 75 % of
+the sample weight is in sharp closures, what the reflected ray finds (here
+nothing: with Total Bounces 0 it is not traced, so 0).
 """
 
 import json
@@ -29,6 +34,9 @@ import tempfile
 
 import bpy
 from mathutils import Vector
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from denoise_vs_cycles import read_exr  # noqa: E402 (a plain-Python EXR reader)
 
 E = 3.0
 
@@ -76,6 +84,9 @@ def cases():
     add("metal gold r0.7", principled, {"Base Color": [1.0, 0.78, 0.34], "Metallic": 1.0, "Roughness": 0.7}, 20, 60, 100)
     add("half metal r0.4", principled, dict(base, Metallic=0.5, Roughness=0.4), 45, 35, 160)
     add("white principled r0.5", principled, {"Base Color": [1.0, 1.0, 1.0]}, 30, 30, 180)
+    add("metal gold r0.1 (sharp: albedo guide passed on)", principled,
+        {"Base Color": [1.0, 0.78, 0.34], "Metallic": 1.0, "Roughness": 0.1}, 30, 32, 180)
+    add("half metal r0.2", principled, dict(base, Metallic=0.7, Roughness=0.2), 50, 50, 175)
     return out
 
 
@@ -106,8 +117,11 @@ def setup_scene():
     scene.view_settings.look = "None"
     scene.view_settings.exposure = 0.0
     scene.view_settings.gamma = 1.0
+    scene.view_layers[0].cycles.denoising_store_passes = True
     s = scene.render.image_settings
-    s.file_format = "OPEN_EXR"
+    s.media_type = "MULTI_LAYER_IMAGE"
+    s.file_format = "OPEN_EXR_MULTILAYER"
+    s.exr_codec = "ZIP"
     s.color_depth = "32"
     s.color_mode = "RGBA"
 
@@ -161,13 +175,10 @@ def set_material(mat, shader, inputs):
     mat.node_tree.links.new(node.outputs[0], out.inputs["Surface"])
 
 
-def mean_rgb(path):
-    img = bpy.data.images.load(path)
-    px = list(img.pixels[:])
-    n = len(px) // 4
-    rgb = [sum(px[4 * i + c] for i in range(n)) / n for c in range(3)]
-    spread = max(abs(px[4 * i + c] - rgb[c]) for i in range(n) for c in range(3))
-    bpy.data.images.remove(img)
+def mean_rgb(channels, prefix):
+    """Mean over the pixels of a pass, and the largest departure from it."""
+    rgb = [float(channels[prefix + c].mean()) for c in "RGB"]
+    spread = max(float(abs(channels[prefix + c] - rgb[i]).max()) for i, c in enumerate("RGB"))
     return rgb, spread
 
 
@@ -187,8 +198,11 @@ def main():
         path = os.path.join(tmp, "case.exr")
         scene.render.filepath = path
         bpy.ops.render.render(write_still=True)
-        rgb, spread = mean_rgb(path)
-        print(f"{name}: {rgb} (pixel spread {spread:.2e})", flush=True)
+        channels, _ = read_exr(path)
+        layer = scene.view_layers[0].name
+        rgb, spread = mean_rgb(channels, f"{layer}.Combined.")
+        albedo, spread_a = mean_rgb(channels, f"{layer}.Denoising Albedo.")
+        print(f"{name}: {rgb} albedo {albedo} (pixel spreads {spread:.2e} {spread_a:.2e})", flush=True)
         results.append(
             {
                 "name": name,
@@ -198,12 +212,14 @@ def main():
                 "wi": wi,
                 "sun_strength": E,
                 "radiance": rgb,
+                "denoising_albedo": albedo,
             }
         )
     doc = {
         "about": "Blender 5.0.1 Cycles: radiance of a flat plane lit by a sun (angle 0) "
         "of strength sun_strength arriving from wi, seen along -wo (plane frame, z = "
-        "normal), Total Bounces 0; tools/blender/bsdf_vs_cycles.py",
+        "normal), Total Bounces 0, and its Denoising Albedo pass; "
+        "tools/blender/bsdf_vs_cycles.py",
         "blender": bpy.app.version_string,
         "cases": results,
     }
