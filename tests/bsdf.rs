@@ -286,7 +286,7 @@ fn lambert_reflects_its_colour() {
 
 /// Oren–Nayar with Cycles' multiple-scattering term keeps a white surface
 /// white: ∫ f cos = E(θo) + (1 − E(θo)) = 1, up to the fitted E_avg
-/// (within 1 %), at σ = 0.3 and 1; without the term (Fujii's model alone)
+/// (measured: within 1.1·10⁻⁴; asserted 10⁻³), at σ = 0.3 and 1; without the term (Fujii's model alone)
 /// it would lose up to 13 %. Mutants caught: the term's (1 − E(θo))
 /// factor left out; the sign of s flipped; s divided by cos θi, or by the
 /// smaller cosine, instead of the larger; E_ms's 1 − ρ (1 − E_avg) written
@@ -298,7 +298,7 @@ fn oren_nayar_white_furnace() {
         for mu in [1.0, 0.5, 0.1] {
             let (d, _) = albedo(&b, mu, None);
             assert!(
-                (d - Rgb::ONE).abs().max_element() < 0.01,
+                (d - Rgb::ONE).abs().max_element() < 1e-3,
                 "σ {sigma} mu {mu}: {d}"
             );
         }
@@ -307,9 +307,11 @@ fn oren_nayar_white_furnace() {
 
 /// The white furnace of Cycles' energy compensation: a white metal
 /// (Base Color 1, so F ≡ 1) with Multiscatter GGX reflects everything,
-/// ∫ f cos = 1 within 0.3 % at every roughness and viewing angle, while
-/// plain GGX reflects only E(r, μ), which loses energy as the roughness
-/// grows (below 0.75 at roughness 1). Mutants caught: the compensation
+/// ∫ f cos = 1 at every roughness and viewing angle (measured: within
+/// 5.8·10⁻⁴, the tables' bilinear reads; asserted 10⁻³), while plain GGX
+/// reflects only E(r, μ) (the quadrature against the table: within
+/// 3.6·10⁻⁴), which loses energy as the roughness grows: 0.31 seen
+/// straight on at roughness 1, 0.56 at 0.8. Mutants caught: the compensation
 /// factor 1/E applied as E; E read at cos θi instead of cos θo; α = r
 /// instead of r² (plain GGX's albedo no longer matches the table); the
 /// table's axes swapped; the metal's F0 from the IOR; G₂ separable
@@ -330,12 +332,12 @@ fn white_metal_furnace_keeps_energy_with_compensation() {
             let (_, multi) = albedo(&white(Distribution::MultiGgx), mu, Some(r));
             let (_, single) = albedo(&white(Distribution::Ggx), mu, Some(r));
             assert!(
-                (multi - Rgb::ONE).abs().max_element() < 3e-3,
+                (multi - Rgb::ONE).abs().max_element() < 1e-3,
                 "r {r} mu {mu}: {multi}"
             );
             let e = tables::ggx_e(r, mu);
             assert!(
-                (single - Rgb::splat(e)).abs().max_element() < 2e-3,
+                (single - Rgb::splat(e)).abs().max_element() < 1e-3,
                 "r {r} mu {mu}: {single} vs E {e}"
             );
             if r == 1.0 && mu > 0.2 {
@@ -346,10 +348,11 @@ fn white_metal_furnace_keeps_energy_with_compensation() {
 }
 
 /// Cycles' albedo scaling: the dielectric specular layer over a white
-/// base reflects (layer) + (1 − layer's estimated albedo) × 1 ≈ 1, within
-/// 1.5 % over roughness and viewing angle (the estimate is Cycles' table
-/// mean of the Fresnel factor, not the layer's exact albedo), and the base
-/// alone is what the layer leaves. Mutants caught: the base not
+/// base reflects (layer) + (1 − layer's estimated albedo) × 1 ≈ 1 over
+/// roughness and viewing angle (measured: from 0.9928 at roughness 0.05
+/// seen at cos θo = 0.1 to 1.0003; asserted within 1 %: the estimate is
+/// Cycles' table mean of the Fresnel factor, not the layer's exact
+/// albedo). Mutants caught: the base not
 /// attenuated; attenuated by the layer's Fresnel at normal incidence
 /// instead of its albedo seen from wo; the darkening left out of the
 /// estimate; Lambert without 1/π or with cos θi; the layering and
@@ -366,7 +369,7 @@ fn dielectric_layer_over_white_base_conserves_energy() {
             let (d, g) = albedo(&b, mu, Some(r));
             let total = d + g;
             assert!(
-                (total - Rgb::ONE).abs().max_element() < 0.015,
+                (total - Rgb::ONE).abs().max_element() < 0.01,
                 "r {r} mu {mu}: diffuse {d} + glossy {g} = {total}"
             );
         }
