@@ -1,45 +1,17 @@
 //! The optics of surfaces: a mesh's material (Blender's Principled BSDF,
 //! Diffuse BSDF or Emission, `crate::scene::SurfaceDesc`) with its
-//! textures loaded, turned at a point of the surface into a BSDF in the
-//! point's shading frame and the radiance it emits (pbrt-v4's split:
+//! textures loaded, turned at a point of the surface into a BSDF
+//! (`crate::bsdf`, in the point's shading frame `crate::bsdf::Frame`) and
+//! the radiance it emits (pbrt-v4's split:
 //! shapes in `crate::shape`, the BSDF here, what light does in the
 //! integrators).
 
 use crate::bsdf::{Bsdf, PrincipledParams};
 use crate::image::texture::Texture;
-use crate::sampling::coordinate_system;
 use crate::scene::{ColorInput, SurfaceDesc};
 use crate::Rgb;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use std::sync::Arc;
-
-/// An orthonormal frame whose `n` is a surface's shading normal: BSDFs
-/// work in it, with `n` as +z.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Frame {
-    pub t: Vec3,
-    pub b: Vec3,
-    pub n: Vec3,
-}
-
-impl Frame {
-    /// A frame around the unit vector `n`.
-    #[inline]
-    pub fn from_normal(n: Vec3) -> Frame {
-        let (t, b) = coordinate_system(n);
-        Frame { t, b, n }
-    }
-    /// `w` (world) in the frame.
-    #[inline]
-    pub fn to_local(&self, w: Vec3) -> Vec3 {
-        Vec3::new(w.dot(self.t), w.dot(self.b), w.dot(self.n))
-    }
-    /// `w` (local) in the world.
-    #[inline]
-    pub fn to_world(&self, w: Vec3) -> Vec3 {
-        self.t * w.x + self.b * w.y + self.n * w.z
-    }
-}
 
 /// A colour input with its texture loaded.
 #[derive(Debug, Clone)]
@@ -117,6 +89,7 @@ impl Surface {
                     ior: p.ior,
                     specular_ior_level: p.specular_ior_level,
                     specular_tint: p.specular_tint,
+                    ..PrincipledParams::default()
                 },
                 emission: p.emission_color * p.emission_strength,
             },

@@ -59,8 +59,31 @@ pub fn along(world: &World, ray: &Ray, step: f32, rng: &mut Rng) -> Rgb {
         }
         true
     });
-    if !ended && hit.is_none() && !world.film_transparent {
-        albedo += tr * world.environment.le(ray.d).min(Rgb::ONE);
+    if !ended {
+        match hit {
+            None if !world.film_transparent => {
+                albedo += tr * world.environment.le(ray.d).min(Rgb::ONE);
+            }
+            // A shaded surface: its BSDF's albedo, as Cycles' Denoising
+            // Albedo takes it (a mostly mirror-like one: the mirror's
+            // colour, where Cycles would go on to what it reflects).
+            Some(h) => {
+                let flags = world.shapes.object(h.object).flags;
+                if !flags.holdout && !flags.shadow_catcher {
+                    let sh = world.shapes.shading(&h);
+                    let sp = world.surfaces[h.object as usize].at(sh.uv);
+                    if let Some(bsdf) = sp.bsdf {
+                        let frame = crate::bsdf::Frame::from_normal(sh.n);
+                        let c = match bsdf.albedo(frame.to_local(-ray.d)) {
+                            crate::bsdf::AlbedoGuide::Albedo(c)
+                            | crate::bsdf::AlbedoGuide::Continue(c) => c,
+                        };
+                        albedo += tr * c;
+                    }
+                }
+            }
+            None => {}
+        }
     }
     albedo
 }

@@ -176,7 +176,7 @@ pub fn direct_light(
 pub fn direct_light_surface(
     world: &World,
     hit: &crate::shape::Hit,
-    frame: &crate::surface::Frame,
+    frame: &crate::bsdf::Frame,
     bsdf: &crate::bsdf::Bsdf,
     wo: Vec3,
     time: f32,
@@ -192,7 +192,7 @@ pub fn direct_light_surface(
             return None;
         }
         let wl = frame.to_local(wi);
-        let f = bsdf.f(wo, wl).sum() * wl.z.abs();
+        let f = bsdf.f(wo, wl).total() * wl.z.abs();
         (f.max_element() > 0.0).then(|| (f, bsdf.pdf(wo, wl)))
     };
     for light in sources.lights_of(world) {

@@ -30,7 +30,7 @@ use crate::light::Light;
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, roulette, Rng};
 use crate::shape::RayKind;
-use crate::surface::Frame;
+use crate::bsdf::Frame;
 use crate::tracking::{self, sample_t_maj, Collision};
 use crate::world::World;
 use crate::Rgb;
@@ -93,6 +93,15 @@ pub const RR_THRESHOLD: f32 = 0.25;
 /// Radiance that a phase-sampled ray leaving the volumes receives from the
 /// environment and the finite suns, MIS-weighted against light sampling.
 fn escaped(world: &World, w: Vec3, phase_pdf: f32, sources: Sources) -> Rgb {
+    // A mirror's direction (an infinite density): no light sample finds
+    // it, so it takes all of the light.
+    let power_heuristic = |nf, f: f32, ng, g| {
+        if f.is_infinite() {
+            1.0
+        } else {
+            power_heuristic(nf, f, ng, g)
+        }
+    };
     let mut l = Rgb::ZERO;
     match sources.environment {
         EnvLight::Off => {}
@@ -354,10 +363,10 @@ pub fn trace_from(
             if bs.pdf <= 0.0 || wi.dot(h.n) <= 0.0 {
                 break;
             }
-            beta *= bs.f.sum() * (bs.wi.z.abs() / bs.pdf);
+            beta *= bs.f.total() * (bs.wi.z.abs() / bs.pdf);
             ray_o = h.spawn(wi);
             ray_d = wi;
-            last_phase_pdf = bs.pdf;
+            last_phase_pdf = if bs.singular { f32::INFINITY } else { bs.pdf };
             kind = if bs.glossy {
                 RayKind::GLOSSY
             } else {

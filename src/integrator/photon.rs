@@ -1182,7 +1182,7 @@ impl PhotonIntegrator {
             if depth > self.max_bounces {
                 return l;
             }
-            let frame = crate::surface::Frame::from_normal(sh.n);
+            let frame = crate::bsdf::Frame::from_normal(sh.n);
             let wo = frame.to_local(-d);
             l += beta * super::nee::direct_light_surface(
                 world, &hit, &frame, &bsdf, wo, time, sources, rng,
@@ -1194,7 +1194,7 @@ impl PhotonIntegrator {
             if bs.pdf <= 0.0 || wi.dot(hit.n) <= 0.0 {
                 return l;
             }
-            beta *= bs.f.sum() * (bs.wi.z.abs() / bs.pdf);
+            beta *= bs.f.total() * (bs.wi.z.abs() / bs.pdf);
             if depth >= super::path::RR_DEPTH && !roulette(&mut beta, super::path::RR_THRESHOLD, rng) {
                 return l;
             }

@@ -332,7 +332,7 @@ fn trace_one(
                 let Some(bsdf) = world.surfaces[h.object as usize].at(sh.uv).bsdf else {
                     return flight;
                 };
-                let frame = crate::surface::Frame::from_normal(sh.n);
+                let frame = crate::bsdf::Frame::from_normal(sh.n);
                 let wo = frame.to_local(-d);
                 let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
                     return flight;
@@ -341,7 +341,7 @@ fn trace_one(
                 if bs.pdf <= 0.0 || wi.dot(h.n) <= 0.0 {
                     return flight;
                 }
-                power *= bs.f.sum() * (bs.wi.z.abs() / bs.pdf);
+                power *= bs.f.total() * (bs.wi.z.abs() / bs.pdf);
                 if !roulette(&mut power, threshold, rng) {
                     return flight;
                 }

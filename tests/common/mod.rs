@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod chi2;
+pub mod quad;
 
 use glam::{DAffine3, DQuat, DVec3, IVec3};
 use std::path::{Path, PathBuf};
