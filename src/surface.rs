@@ -93,7 +93,10 @@ impl Surface {
                 },
                 emission: p.emission_color * p.emission_strength,
             },
-            SurfaceDesc::Diffuse { color: c, roughness } => Surface::Diffuse {
+            SurfaceDesc::Diffuse {
+                color: c,
+                roughness,
+            } => Surface::Diffuse {
                 color: color(c)?,
                 roughness: *roughness,
             },

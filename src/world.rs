@@ -4,19 +4,19 @@
 use crate::camera::{Camera, Plane, Shutter};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
+use crate::image::texture::{ColorSpace, Texture};
 use crate::light::{EnvMap, Environment, Light};
 use crate::medium::{ExtraGrids, Material, Media, VelocityField, VelocityGrids, Volume};
 use crate::scene::{
     CameraDesc, CameraPose, EnvironmentDesc, Lens, LightDesc, MaterialDesc, MeshDesc,
     MotionBlurDesc, SceneDesc, VelocityUnit, VolumeBounds, VolumeDesc,
 };
-use crate::image::texture::{ColorSpace, Texture};
 use crate::scene::{ColorInput, TextureColorSpace};
 use crate::shape::{Geometry, Object, ObjectFlags, RayKind, Shapes, Visibility};
 use crate::surface::Surface;
-use std::sync::Arc;
 use crate::vdb::VdbFile;
 use glam::{DAffine3, DVec3, Vec2, Vec3};
+use std::sync::Arc;
 use std::time::Instant;
 
 pub struct World {

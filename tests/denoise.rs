@@ -312,6 +312,7 @@ fn box_world(sigma_s: Rgb, sigma_a: f32, sky: f32, eye: Vec3) -> World {
         media: Media::new(vec![v]),
         warnings: vec![],
         shapes: vdbphoton::shape::Shapes::empty(),
+        surfaces: Vec::new(),
         film_transparent: false,
         load_seconds: 0.0,
     }

@@ -41,6 +41,7 @@ fn world(media: Media, lights: Vec<Light>) -> World {
         media,
         warnings: vec![],
         shapes: vdbphoton::shape::Shapes::empty(),
+        surfaces: Vec::new(),
         film_transparent: false,
         load_seconds: 0.0,
     }

@@ -28,7 +28,9 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("files", &["vdb", "generate", "mesh"]),
     (
         "optics",
-        &["phase", "light", "medium", "camera", "shape", "bsdf", "surface"],
+        &[
+            "phase", "light", "medium", "camera", "shape", "bsdf", "surface",
+        ],
     ),
     ("world", &["world", "tracking"]),
     ("transport", &["photon", "film"]),

@@ -44,6 +44,7 @@ fn box_world(lights: Vec<Light>, env: Environment, g: f32) -> World {
         media: Media::new(vec![v]),
         warnings: vec![],
         shapes: vdbphoton::shape::Shapes::empty(),
+        surfaces: Vec::new(),
         film_transparent: false,
         load_seconds: 0.0,
     }
@@ -304,6 +305,7 @@ fn furnace_under_a_uniform_map() {
         media: Media::new(vec![v]),
         warnings: vec![],
         shapes: vdbphoton::shape::Shapes::empty(),
+        surfaces: Vec::new(),
         film_transparent: false,
         load_seconds: 0.0,
     };

@@ -101,6 +101,7 @@ fn world(volume: Volume, lights: Vec<Light>, shutter: Option<f32>) -> World {
         media: Media::new(vec![volume]),
         warnings: vec![],
         shapes: vdbphoton::shape::Shapes::empty(),
+        surfaces: Vec::new(),
         film_transparent: false,
         load_seconds: 0.0,
     }

@@ -42,6 +42,7 @@ fn world(volumes: Vec<Volume>, lights: Vec<Light>, env: Rgb) -> World {
         media: Media::new(volumes),
         warnings: vec![],
         shapes: vdbphoton::shape::Shapes::empty(),
+        surfaces: Vec::new(),
         film_transparent: false,
         load_seconds: 0.0,
     }
@@ -1057,6 +1058,7 @@ fn thin_slab_of_cycles_phase_functions_matches_single_scattering() {
             media: Media::new(vec![slab]),
             warnings: vec![],
             shapes: vdbphoton::shape::Shapes::empty(),
+            surfaces: Vec::new(),
             film_transparent: false,
             load_seconds: 0.0,
         };

@@ -836,7 +836,7 @@ fn error_nan() {
 fn error_no_volume() {
     assert_eq!(
         toml_err("[render]\nwidth = 10\n"),
-        "scene.toml: no [[volume]]: a scene needs at least one volume"
+        "scene.toml: no [[volume]] and no [[mesh]]: a scene needs something to render"
     );
 }
 
@@ -1142,7 +1142,7 @@ fn empty_file() {
         assert_eq!(
             load_err(&path),
             format!(
-                "{}: no [[volume]]: a scene needs at least one volume",
+                "{}: no [[volume]] and no [[mesh]]: a scene needs something to render",
                 path.display()
             )
         );

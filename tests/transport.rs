@@ -47,6 +47,7 @@ fn world_of(media: Media, lights: Vec<Light>, env: Rgb, camera: Camera) -> World
         media,
         warnings: vec![],
         shapes: vdbphoton::shape::Shapes::empty(),
+        surfaces: Vec::new(),
         film_transparent: false,
         load_seconds: 0.0,
     }

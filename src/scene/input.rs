@@ -14,10 +14,10 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use super::desc::{
-    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, DenoiseQuality, EnvironmentDesc,
-    ColorInput, LightDesc, MaterialDesc, MeshDesc, MotionBlurDesc, Param, Params, PhaseDesc,
-    Principled, PrincipledBsdf, RayVisibility, RenderDesc, SceneDesc, ShutterPosition,
-    SurfaceDesc, TextureColorSpace, VelocityUnit, VolumeDesc,
+    affine_from_rows, compose_trs, BlackbodyFilter, CameraDesc, ColorInput, DenoiseQuality,
+    EnvironmentDesc, LightDesc, MaterialDesc, MeshDesc, MotionBlurDesc, Param, Params, PhaseDesc,
+    Principled, PrincipledBsdf, RayVisibility, RenderDesc, SceneDesc, ShutterPosition, SurfaceDesc,
+    TextureColorSpace, VelocityUnit, VolumeDesc,
 };
 use super::desc::{CameraPose, Lens, SensorFit, VolumeBounds, AUTO_VIEW_DIRECTION};
 use super::error::{kp, PathSeg, ValidationError};

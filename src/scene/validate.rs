@@ -130,7 +130,7 @@ pub const MAX_SHUTTER: f32 = 1000.0;
 
 impl SceneDesc {
     /// Checks every rule the parser cannot express per key: ranges, finite
-    /// numbers, camera geometry, at least one volume. Returns the first
+    /// numbers, camera geometry, something to render. Returns the first
     /// problem found. Call it again after changing fields (CLI overrides).
     pub fn validate(&self) -> Result<(), ValidationError> {
         self.validate_render()?;
@@ -216,8 +216,11 @@ impl SceneDesc {
                 validate_surface(&with(&path, "material"), m)?;
             }
         }
-        if self.volumes.is_empty() {
-            return err(vec![], "no [[volume]]: a scene needs at least one volume");
+        if self.volumes.is_empty() && self.meshes.is_empty() {
+            return err(
+                vec![],
+                "no [[volume]] and no [[mesh]]: a scene needs something to render",
+            );
         }
         Ok(())
     }
@@ -499,8 +502,18 @@ fn validate_surface(path: &[PathSeg], m: &super::desc::SurfaceDesc) -> Check {
     match m {
         SurfaceDesc::Principled(p) => {
             validate_color(path, "base_color", &p.base_color)?;
-            in_range(&with(path, "roughness"), p.roughness, (0.0, true), (1.0, true))?;
-            in_range(&with(path, "metallic"), p.metallic, (0.0, true), (1.0, true))?;
+            in_range(
+                &with(path, "roughness"),
+                p.roughness,
+                (0.0, true),
+                (1.0, true),
+            )?;
+            in_range(
+                &with(path, "metallic"),
+                p.metallic,
+                (0.0, true),
+                (1.0, true),
+            )?;
             in_range(&with(path, "ior"), p.ior, (1.0, true), (1000.0, true))?;
             in_range(
                 &with(path, "specular_ior_level"),
@@ -514,7 +527,12 @@ fn validate_surface(path: &[PathSeg], m: &super::desc::SurfaceDesc) -> Check {
         }
         SurfaceDesc::Diffuse { color, roughness } => {
             validate_color(path, "color", color)?;
-            in_range(&with(path, "roughness"), *roughness, (0.0, true), (1.0, true))
+            in_range(
+                &with(path, "roughness"),
+                *roughness,
+                (0.0, true),
+                (1.0, true),
+            )
         }
         SurfaceDesc::Emission { color, strength } => {
             validate_color(path, "color", color)?;

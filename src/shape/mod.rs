@@ -483,7 +483,11 @@ impl Shapes {
     /// Bytes the surfaces take.
     pub fn memory_bytes(&self) -> usize {
         self.sets.iter().map(Set::memory_bytes).sum::<usize>()
-            + self.geometry.iter().map(Geometry::shading_bytes).sum::<usize>()
+            + self
+                .geometry
+                .iter()
+                .map(Geometry::shading_bytes)
+                .sum::<usize>()
     }
 
     #[inline]

@@ -47,7 +47,9 @@ pub fn real_data() -> Option<PathBuf> {
             None
         }
         Some(p) => {
+            // Absolute, so that scenes written elsewhere can name it.
             let p = PathBuf::from(p);
+            let p = std::path::absolute(&p).unwrap_or(p);
             assert!(
                 p.join("cloud96.vdb").is_file(),
                 "VDBPHOTON_REAL_DATA={} does not hold cloud96.vdb",

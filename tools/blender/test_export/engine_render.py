@@ -315,16 +315,19 @@ def main(vdb, out_dir, case):
         bpy.ops.render.render(write_still=True)
         done = time.monotonic()
         found['seconds_after_break'] = done - marks['break'] if 'break' in marks else None
-        # No vdbphoton left running (/proc: processes whose command line
-        # names our scene folder).
+        # No vdbphoton of ours left running (/proc: children of this
+        # process whose command line names a render folder; other tests
+        # running beside this one have renders of their own).
         alive = []
         for pid in os.listdir('/proc'):
             if pid.isdigit():
                 try:
                     cmd = open(f'/proc/{pid}/cmdline', 'rb').read().decode(errors='replace')
+                    stat = open(f'/proc/{pid}/stat').read()
                 except OSError:
                     continue
-                if 'vdbphoton-render-' in cmd and 'render' in cmd:
+                parent = int(stat.rsplit(')', 1)[1].split()[1])
+                if parent == os.getpid() and 'vdbphoton-render-' in cmd and 'render' in cmd:
                     alive.append(pid)
         found['alive'] = alive
         found['temp_left'] = [d for d in os.listdir(os.environ.get('TMPDIR', '/tmp'))
