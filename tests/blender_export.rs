@@ -59,8 +59,14 @@
 //! Cycles' flags, the PLY's triangle count, instances of one mesh sharing
 //! one file, and the PLY's vertices through the entry's matrix equal to the
 //! world-space vertices the script computed from the objects' transforms;
-//! then the export time of a 1,002,528-triangle mesh (printed, not
-//! asserted).
+//! then the export of a 1,002,528-triangle smooth mesh with UVs and sharp
+//! edges (its PLY checked, the times printed, not asserted).
+//!
+//! `blender_exports_surface_materials_normals_and_uvs`: the `[mesh.material]`
+//! of every mesh of mesh_scene.py's surfaces.blend (Principled, Diffuse,
+//! Emission, image textures and their colour spaces, packed and converted
+//! images, node groups, material slots), the warnings for what cannot be
+//! represented, and the PLYs' normals and UVs against Blender's corners.
 //!
 //! The Python with bpy: `$VDBPHOTON_BPY_PYTHON`, else
 //! `target/venv-bpy/bin/python`, else `/work/venv-bpy/bin/python`; with

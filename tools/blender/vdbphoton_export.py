@@ -344,6 +344,7 @@ class Exporter:
         self.meshes = {}
         self.texture_paths = {}
         self.texture_files = {}
+        self.packed_written = {}
         self.mesh_parts = {}
         self.instances = 0
         self.uv_told = set()
@@ -1547,7 +1548,7 @@ class Exporter:
                     return None
                 self.warn(f"{what} has no faces (nothing to render); not exported")
                 return None
-            co, tri, loops, mi, normals, uv, uv_name = read_mesh_arrays(me)
+            co, tri, loops, corner_vert, mi, normals, uv, uv_name = read_mesh_arrays(me)
         finally:
             if temporary:
                 ob.to_mesh_clear()
@@ -1575,7 +1576,7 @@ class Exporter:
                 n = int((~np.isfinite(arr).all(axis=1)).sum())
                 self.warn(f"{what}: {n} {name} not a finite number; set to 0")
                 arr[~np.isfinite(arr)] = 0.0
-        co, tri, n, uv = split_corners(co, tri, loops, normals, uv)
+        co, tri, n, uv = split_corners(co, tri, loops, corner_vert, normals, uv)
         slot = np.clip(mi, 0, max(nslots, 1) - 1)
         used = np.unique(slot)
         parts = []
@@ -1746,7 +1747,13 @@ class Exporter:
                 next((m for m in (b'\x89PNG', b'\xff\xd8\xff', b'v/1\x01')
                       if data.startswith(m)), None), ext.lower())
             if ext in TEXTURE_EXTENSIONS:
+                import hashlib
+                digest = hashlib.sha256(data).hexdigest()
+                if digest in self.packed_written:  # the same image packed twice
+                    self.texture_files[img.name_full] = self.packed_written[digest]
+                    return f'{folder_name}/{self.packed_written[digest]}'
                 name = self.texture_name(stem, ext, names)
+                self.packed_written[digest] = name
                 path = os.path.join(folder, name)
                 tmp = os.path.join(folder, f'.{name}.{os.getpid()}.tmp')
                 with open(tmp, 'wb') as f:
@@ -2477,7 +2484,8 @@ def slot_materials(ob):
 def read_mesh_arrays(me):
     """Mesh `me`'s arrays, read in bulk: vertex positions (n, 3), loop
     triangles' vertices and corners (m, 3), their material indices (m,),
-    the normals Blender shades with: None (every face flat), ('point', (n, 3)
+    the corners' vertices (corners,), the normals Blender shades with: None
+    (every face flat), ('point', (n, 3)
     vertex normals: smooth without sharp edges) or ('corner', (corners, 3):
     Blender 4.1+'s corner_normals, flat faces' own normal, split and custom
     normals), and the active render UV map (corners, 2) and its name, or
@@ -2494,10 +2502,10 @@ def read_mesh_arrays(me):
         # Blender 4+: the corners' vertices, read raw (3 x faster).
         corner_vert = np.empty(nl, dtype=np.int32)
         cv.data.foreach_get('value', corner_vert)
-        tri = corner_vert[loops]
     else:
-        tri = np.empty(nt * 3, dtype=np.int32)
-        me.loop_triangles.foreach_get('vertices', tri)
+        corner_vert = np.empty(nl, dtype=np.int32)
+        me.loops.foreach_get('vertex_index', corner_vert)
+    tri = corner_vert[loops]
     if hasattr(me, 'loop_triangle_polygons'):
         ltp = np.empty(nt, dtype=np.int32)
         me.loop_triangle_polygons.foreach_get('value', ltp)
@@ -2539,8 +2547,8 @@ def read_mesh_arrays(me):
         else:
             layer.data.foreach_get('uv', uv)
         uv, uv_name = uv.reshape(-1, 2), layer.name
-    return (co.reshape(-1, 3), tri.reshape(-1, 3), loops.reshape(-1, 3), mi, normals, uv,
-            uv_name)
+    return (co.reshape(-1, 3), tri.reshape(-1, 3), loops.reshape(-1, 3), corner_vert, mi,
+            normals, uv, uv_name)
 
 
 def merge_world(items):
@@ -2579,48 +2587,43 @@ def merge_world(items):
             'uv': np.concatenate(uvs) if with_uv else None}
 
 
-def split_corners(co, tri, loops, normals, uv):
-    """Per-vertex normals and UVs from per-corner ones: a vertex whose
-    corners all agree keeps its index; each other distinct (vertex, normal,
-    UV) becomes a new vertex after the original ones (numpy, no loop over
-    corners). Returns (co, tri, n or None, uv or None)."""
+def split_corners(co, tri, loops, corner_vert, normals, uv):
+    """Per-vertex normals and UVs from per-corner (loop) ones: a vertex
+    whose corners all agree keeps its index; each other distinct (vertex,
+    normal, UV) becomes a new vertex after the original ones. Works on the
+    mesh's corners (4 a quad, not 6), in numpy without a loop over them.
+    Returns (co, tri, n or None, uv or None)."""
     import numpy as np
     nv = len(co)
-    cv = tri.reshape(-1)
-    cl = loops.reshape(-1)
-    cols = []
-    if normals is not None and normals[0] == 'corner':
-        cols.append(normals[1][cl])
-    if uv is not None:
-        cols.append(uv[cl])
+    corner = normals is not None and normals[0] == 'corner'
     vn = normals[1] if normals is not None and normals[0] == 'point' else None
+    cols = ([normals[1]] if corner else []) + ([uv] if uv is not None else [])
     if not cols:
         return co, tri, vn, None
     attr = np.ascontiguousarray(np.concatenate(cols, axis=1) if len(cols) > 1 else cols[0],
                                 dtype=np.float32)
     k = attr.shape[1]
     rep = np.zeros((nv, k), dtype=np.float32)
-    if normals is not None and normals[0] == 'corner':
-        rep[:, 2] = 1.0  # vertices no triangle uses
-    rep[cv] = attr  # one corner's values per vertex
-    bits = attr.view(np.uint32)
-    same = (bits == rep.view(np.uint32)[cv]).all(axis=1)
+    if corner:
+        rep[:, 2] = 1.0  # vertices no corner uses
+    rep[corner_vert] = attr  # one corner's values per vertex
+    same = (attr == rep[corner_vert]).all(axis=1)
     diff = np.flatnonzero(~same)
     if len(diff):
         keys = np.empty((len(diff), k + 1), dtype=np.uint32)
-        keys[:, 0] = cv[diff]
-        keys[:, 1:] = bits[diff]
-        rows = np.ascontiguousarray(keys).view(np.dtype((np.void, 4 * (k + 1)))).ravel()
+        keys[:, 0] = corner_vert[diff]
+        keys[:, 1:] = attr[diff].view(np.uint32)
+        rows = keys.view(np.dtype((np.void, 4 * (k + 1)))).ravel()
         _, first, inv = np.unique(rows, return_index=True, return_inverse=True)
-        cv = cv.copy()
-        cv[diff] = nv + inv.reshape(-1)
+        new_vert = corner_vert.copy()
+        new_vert[diff] = nv + inv.reshape(-1)
         vmap = np.concatenate([np.arange(nv), keys[first, 0].astype(np.int64)])
         rep = np.concatenate([rep, attr[diff[first]]])
         co = co[vmap]
         if vn is not None:
             vn = vn[vmap]
-    tri = cv.reshape(-1, 3).astype(np.int32)
-    n = rep[:, :3] if normals is not None and normals[0] == 'corner' else vn
+        tri = new_vert[loops].astype(np.int32)
+    n = rep[:, :3] if corner else vn
     return co, tri, n, (rep[:, -2:] if uv is not None else None)
 
 

@@ -44,7 +44,19 @@ under a sun and a constant sky, nothing else:
   Specular Tint white); sun SPHERES_SUN from SPHERES_SUN_DIRECTION, angle 0;
   sky SPHERES_SKY; camera SPHERES_CAMERA, 200 x 150.
 
-Both: Cycles 5.0.1 with render_cycles.py's unbiased settings (CPU, no
+SHOT `texture`: image textures through UVs, with a closed form. Two 1.6 x
+1.6 quads side by side facing the camera, each with a UV map from (0, 0) at
+its lower left to (1, 1) at its upper right, under a uniform white sky
+(radiance 1) and nothing else, so that each pixel's radiance is the
+texture's linear value there (a Lambertian surface under a uniform sky of
+radiance 1 reflects its albedo): `sRGB quad` (left) a Diffuse BSDF whose
+Color is an Image Texture of TEXTURE (8 x 4 texels, sRGB), `Linear quad`
+(right) the same image read as Non-Color, through a UV Map node; Linear
+interpolation, Repeat. The image is packed in the .blend (the exporter
+writes it beside the PLYs); camera at (0, -4, 0) looking at +Y, vfov 30
+degrees, 128 x 64.
+
+All: Cycles 5.0.1 with render_cycles.py's unbiased settings (CPU, no
 clamping, no adaptive sampling, light tree, path guiding or denoising,
 light threshold 0, box filter 1 px, unbiased volumes, volume precision
 FULL, caustics on, Filter Glossy 0), every bounce limit 127 = vdbphoton's
@@ -105,6 +117,10 @@ SPHERES = [
     ('Metal', (1.15, 0.0, 0.0), {'Base Color': (0.95, 0.7, 0.35, 1.0), 'Metallic': 1.0,
                                  'Roughness': 0.3}),
 ]
+TEXTURE = 'surface_texture.png'
+TEXTURE_SIZE = (8, 4)
+TEXTURE_CAMERA = {'position': [0.0, -4.0, 0.0], 'look_at': [0.0, 0.0, 0.0],
+                  'up': [0.0, 0.0, 1.0], 'vfov': 30.0}
 SPHERES_SUN_DIRECTION = [0.5, -0.6, 0.62]
 SPHERES_SUN = [2.5, 2.4, 2.2]
 SPHERES_SKY = [0.12, 0.15, 0.2]
@@ -137,12 +153,12 @@ def uv_sphere(name, u, v, r):
     return me
 
 
-def base(spp, seed, threads, vols, camera, sun_dir, sun, sky):
+def base(spp, seed, threads, vols, camera, sun_dir, sun, sky, size=(WIDTH, HEIGHT)):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     args = SimpleNamespace(width=None, height=None, spp=spp, seed=seed, threads=threads,
                            half=False)
-    render_cycles.setup_render(sc, {'width': WIDTH, 'height': HEIGHT, 'spp': spp,
+    render_cycles.setup_render(sc, {'width': size[0], 'height': size[1], 'spp': spp,
                                     'seed': seed, 'max_bounces': MAX_BOUNCES}, args, vols)
     render_cycles.setup_camera(sc, camera)
     render_cycles.setup_lights(sc, [{'type': 'sun', 'direction': sun_dir,
@@ -196,15 +212,79 @@ def build_spheres(spp=64, seed=0, threads=2):
     return sc
 
 
+def texture_pixels():
+    """TEXTURE's 8 x 4 RGBA texels, rows from the bottom (Blender's order):
+    distinct in every texel and channel, so that a flip or a shift shows."""
+    px = []
+    for j in range(TEXTURE_SIZE[1]):
+        for i in range(TEXTURE_SIZE[0]):
+            px.append(((i + 0.5) / TEXTURE_SIZE[0], (j + 0.5) / TEXTURE_SIZE[1],
+                       ((i * 3 + j * 5) % 8 + 0.5) / 8.0, 1.0))
+    return px
+
+
+def build_texture(spp=64, seed=0, threads=2):
+    import tempfile
+    sc = base(spp, seed, threads, [], TEXTURE_CAMERA, [0.0, 0.0, 1.0], [0.0, 0.0, 0.0],
+              [1.0, 1.0, 1.0], size=(128, 64))
+    bpy.data.objects.remove(bpy.data.objects['Sun'])
+    img = bpy.data.images.new(TEXTURE, *TEXTURE_SIZE, alpha=True)
+    img.pixels = [x for p in texture_pixels() for x in p]
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, TEXTURE)
+        img.filepath_raw = path
+        img.file_format = 'PNG'
+        img.save()
+        bpy.data.images.remove(img)
+        srgb = bpy.data.images.load(path)
+        srgb.pack()
+        srgb.filepath = '//' + TEXTURE
+    srgb.colorspace_settings.name = 'sRGB'
+    for name, x, space in (('sRGB quad', -0.9, 'sRGB'), ('Linear quad', 0.9, 'Non-Color')):
+        me = bpy.data.meshes.new(name)
+        me.from_pydata([(-0.8, 0, -0.8), (0.8, 0, -0.8), (0.8, 0, 0.8), (-0.8, 0, 0.8)], [],
+                       [(0, 1, 2, 3)])
+        uv = me.uv_layers.new(name='UVMap')
+        for k, c in enumerate([(0, 0), (1, 0), (1, 1), (0, 1)]):
+            uv.uv[k].vector = c
+        m = bpy.data.materials.new(name)
+        m.use_nodes = True
+        nt = m.node_tree
+        for n in list(nt.nodes):
+            nt.nodes.remove(n)
+        d = nt.nodes.new('ShaderNodeBsdfDiffuse')
+        t = nt.nodes.new('ShaderNodeTexImage')
+        if space == 'sRGB':
+            t.image = srgb
+        else:
+            t.image = srgb.copy()
+            t.image.colorspace_settings.name = space
+        t.interpolation = 'Linear'
+        t.extension = 'REPEAT'
+        u = nt.nodes.new('ShaderNodeUVMap')
+        u.uv_map = 'UVMap'
+        out = nt.nodes.new('ShaderNodeOutputMaterial')
+        nt.links.new(u.outputs['UV'], t.inputs['Vector'])
+        nt.links.new(t.outputs['Color'], d.inputs['Color'])
+        nt.links.new(d.outputs['BSDF'], out.inputs['Surface'])
+        me.materials.append(m)
+        o = bpy.data.objects.new(name, me)
+        o.location = (x, 0.0, 0.0)
+        sc.collection.objects.link(o)
+    return sc
+
+
 def build(shot, vdb, spp=64, seed=0, threads=2):
     if shot == 'smoke':
         return build_smoke(vdb, spp, seed, threads)
+    if shot == 'texture':
+        return build_texture(spp, seed, threads)
     return build_spheres(spp, seed, threads)
 
 
 def render(shot, vdb, variant, out, spp, seed, threads):
     variants = {'smoke': ('full', 'nofire', 'nosmoke', 'smokealpha', 'nobounce', 'mask'),
-                'spheres': ('full',)}
+                'spheres': ('full',), 'texture': ('full',)}
     if variant not in variants[shot]:
         print(f"unknown variant {variant!r} of shot {shot!r} ({', '.join(variants[shot])})",
               file=sys.stderr)
@@ -245,8 +325,9 @@ def render(shot, vdb, variant, out, spp, seed, threads):
             out_n = [n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputMaterial'][0]
             nt.links.new(em.outputs[0], out_n.inputs['Surface'])
     out = os.path.abspath(out)
-    print(f'{shot} {variant}: {WIDTH}x{HEIGHT}, {spp} spp, seed {seed}, {threads} threads',
-          flush=True)
+    r = sc.render
+    print(f'{shot} {variant}: {r.resolution_x}x{r.resolution_y}, {spp} spp, seed {seed}, '
+          f'{threads} threads', flush=True)
     t0 = time.time()
     bpy.ops.render.render(write_still=False)
     t = time.time() - t0
@@ -277,7 +358,10 @@ def export(shot, vdb, out, relative_vdb, blend):
                      "# over a grey Principled ground with a Principled ball, a sun and a sky, "
                      "film opaque",
             'spheres': "three Principled spheres (rough dielectric, glossy dielectric, metal)\n"
-                       "# under a sun and a constant sky"}[shot]
+                       "# under a sun and a constant sky",
+            'texture': "two quads with an image texture through their UV map (sRGB and\n"
+                       "# Non-Color), diffuse under a uniform white sky: each pixel is the texture's "
+                       "linear value"}[shot]
     head = (f"# Issue 50's shot against Cycles 5.0.1: {what}. Made by\n"
             "# tools/blender/test_export/build_surface_shot.py (export); see README.md.\n")
     with open(out, 'w') as f:
@@ -289,7 +373,7 @@ def export(shot, vdb, out, relative_vdb, blend):
 def main(argv):
     ap = argparse.ArgumentParser()
     ap.add_argument('mode', choices=['render', 'export'])
-    ap.add_argument('shot', choices=['smoke', 'spheres'])
+    ap.add_argument('shot', choices=['smoke', 'spheres', 'texture'])
     ap.add_argument('rest', nargs='+')
     ap.add_argument('--vdb')
     ap.add_argument('--spp', type=int, default=64)
