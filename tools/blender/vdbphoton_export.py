@@ -2345,6 +2345,19 @@ class SurfaceReader:
             m['base_color_texture'] = tex
         else:
             m['base_color'] = c
+        if 'Specular IOR Level' not in node.inputs:
+            # Blender 3's Principled BSDF (Specular, Clearcoat, ...).
+            self.warn(f" {self.nname(node, stack)} is a Principled BSDF of Blender 3, whose "
+                      "inputs differ from Blender 4's: Base Color, Roughness, Metallic, IOR "
+                      "and the emission are read, the rest left at Blender 4's defaults (open "
+                      "and save the file in Blender 4 or later for a faithful export)")
+            for sock, key in PRINCIPLED_SCALARS + (('Emission Strength', 'emission_strength'),):
+                m[key] = self.scalar(node, stack, sock) if sock in node.inputs else \
+                    BLENDER_DEFAULTS[sock]
+            m['specular_tint'] = [1.0, 1.0, 1.0]
+            m['emission_color'] = self.colour(node, stack, 'Emission')[0] \
+                if 'Emission' in node.inputs else [1.0, 1.0, 1.0]
+            return m
         for sock, key in PRINCIPLED_SCALARS:
             m[key] = self.scalar(node, stack, sock)
         for sock, key in PRINCIPLED_COLOURS:
