@@ -59,8 +59,14 @@
 //! Cycles' flags, the PLY's triangle count, instances of one mesh sharing
 //! one file, and the PLY's vertices through the entry's matrix equal to the
 //! world-space vertices the script computed from the objects' transforms;
-//! then the export time of a 1,002,528-triangle mesh (printed, not
-//! asserted).
+//! then the export of a 1,002,528-triangle smooth mesh with UVs and sharp
+//! edges (its PLY checked, the times printed, not asserted).
+//!
+//! `blender_exports_surface_materials_normals_and_uvs`: the `[mesh.material]`
+//! of every mesh of mesh_scene.py's surfaces.blend (Principled, Diffuse,
+//! Emission, image textures and their colour spaces, packed and converted
+//! images, node groups, material slots), the warnings for what cannot be
+//! represented, and the PLYs' normals and UVs against Blender's corners.
 //!
 //! The Python with bpy: `$VDBPHOTON_BPY_PYTHON`, else
 //! `target/venv-bpy/bin/python`, else `/work/venv-bpy/bin/python`; with
@@ -1255,8 +1261,30 @@ fn blender_renders_with_the_vdbphoton_engine() {
 // ------------------------------------------------------------------ meshes
 
 /// A binary little-endian PLY as the exporter writes it: vertex float x y
-/// z, face list uchar int vertex_indices (triangles).
-fn read_ply(path: &Path) -> (Vec<[f32; 3]>, Vec<[i32; 3]>) {
+/// z (then nx ny nz with normals, s t with UVs), face list uchar int
+/// vertex_indices (triangles).
+struct Ply {
+    /// The vertex properties in order (`x`, `y`, `z`, maybe `nx` ... `t`).
+    props: Vec<String>,
+    /// Per vertex, one value per property.
+    verts: Vec<Vec<f32>>,
+    tris: Vec<[i32; 3]>,
+}
+
+impl Ply {
+    /// Property `names` of vertex `v`.
+    fn get(&self, v: usize, names: &[&str]) -> Vec<f64> {
+        names
+            .iter()
+            .map(|n| {
+                let i = self.props.iter().position(|p| p == n).unwrap();
+                f64::from(self.verts[v][i])
+            })
+            .collect()
+    }
+}
+
+fn read_ply_full(path: &Path) -> Ply {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let end = bytes
         .windows(11)
@@ -1276,17 +1304,35 @@ fn read_ply(path: &Path) -> (Vec<[f32; 3]>, Vec<[i32; 3]>) {
             .unwrap()
     };
     let (nv, nf) = (count("vertex"), count("face"));
-    for p in [
-        "property float x",
-        "property float y",
-        "property float z",
-        "property list uchar int vertex_indices",
-    ] {
-        assert!(lines.contains(&p), "{}: no '{p}'", path.display());
-    }
+    let vstart = lines
+        .iter()
+        .position(|l| l.starts_with("element vertex "))
+        .unwrap();
+    let props: Vec<String> = lines[vstart + 1..]
+        .iter()
+        .map_while(|l| l.strip_prefix("property float "))
+        .map(str::to_string)
+        .collect();
+    let allowed: &[&[&str]] = &[
+        &["x", "y", "z"],
+        &["x", "y", "z", "nx", "ny", "nz"],
+        &["x", "y", "z", "s", "t"],
+        &["x", "y", "z", "nx", "ny", "nz", "s", "t"],
+    ];
+    assert!(
+        allowed.iter().any(|a| props == *a),
+        "{}: vertex properties {props:?}",
+        path.display()
+    );
+    assert!(
+        lines.contains(&"property list uchar int vertex_indices"),
+        "{}: no face list",
+        path.display()
+    );
+    let stride = 4 * props.len();
     assert_eq!(
         bytes.len(),
-        end + nv * 12 + nf * 13,
+        end + nv * stride + nf * 13,
         "{}: size for {nv} vertices and {nf} triangles",
         path.display()
     );
@@ -1294,11 +1340,12 @@ fn read_ply(path: &Path) -> (Vec<[f32; 3]>, Vec<[i32; 3]>) {
     let i32_at = |o: usize| i32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
     let verts = (0..nv)
         .map(|i| {
-            let o = end + 12 * i;
-            [f32_at(o), f32_at(o + 4), f32_at(o + 8)]
+            (0..props.len())
+                .map(|k| f32_at(end + stride * i + 4 * k))
+                .collect()
         })
         .collect();
-    let base = end + 12 * nv;
+    let base = end + stride * nv;
     let tris = (0..nf)
         .map(|i| {
             let o = base + 13 * i;
@@ -1319,7 +1366,14 @@ fn read_ply(path: &Path) -> (Vec<[f32; 3]>, Vec<[i32; 3]>) {
             t
         })
         .collect();
-    (verts, tris)
+    Ply { props, verts, tris }
+}
+
+/// Positions and triangles of a PLY the exporter wrote.
+fn read_ply(path: &Path) -> (Vec<[f32; 3]>, Vec<[i32; 3]>) {
+    let p = read_ply_full(path);
+    let verts = p.verts.iter().map(|v| [v[0], v[1], v[2]]).collect();
+    (verts, p.tris)
 }
 
 /// The number in a `vdbphoton_export: note:` line after `after` (e.g. the
@@ -1580,13 +1634,248 @@ fn blender_exports_meshes_as_blender_renders_them() {
     let notes = exporter_lines(&out.stderr, "note");
     let read = note_number(&notes, "meshes: 1 instance", " read in ").unwrap_or(f64::NAN);
     let written = note_number(&notes, "meshes: 1 PLY file", " in ").unwrap_or(f64::NAN);
-    let (verts, tris) = read_ply(&dir.join("big_meshes/Big.ply"));
-    assert_eq!((verts.len(), tris.len()), (502_681, 1_002_528));
-    eprintln!(
-        "export of a {}-triangle mesh: meshes read in {read:.2} s, written in {written:.2} s; \
-         the whole export (Python, bpy, the .blend) {wall:.2} s",
-        tris.len()
+    let big = read_ply_full(&dir.join("big_meshes/Big.ply"));
+    let size = std::fs::metadata(dir.join("big_meshes/Big.ply"))
+        .unwrap()
+        .len();
+    assert_eq!(big.props, ["x", "y", "z", "nx", "ny", "nz", "s", "t"]);
+    assert_eq!(big.tris.len(), 1_002_528);
+    // 709 x 709 vertices, those of the sharp row split in two.
+    assert!(
+        (502_681 + 700..=502_681 + 709).contains(&big.verts.len()),
+        "{} vertices",
+        big.verts.len()
     );
+    eprintln!(
+        "export of a {}-triangle smooth mesh with UVs ({} vertices, {:.1} MB of PLY): meshes \
+         read in {read:.2} s, written in {written:.2} s; the whole export (Python, bpy, the \
+         .blend) {wall:.2} s",
+        big.tris.len(),
+        big.verts.len(),
+        size as f64 / 1e6
+    );
+}
+
+/// Whether TOML value `got` equals JSON value `want` (numbers within 1e-6;
+/// `null` is no value).
+fn same_value(got: Option<&toml::Value>, want: &serde_json::Value, what: &str) {
+    match (got, want) {
+        (None, serde_json::Value::Null) => {}
+        (Some(toml::Value::Table(t)), serde_json::Value::Object(o)) => {
+            let mut a: Vec<&String> = t.keys().collect();
+            let mut b: Vec<&String> = o.keys().collect();
+            a.sort();
+            b.sort();
+            assert_eq!(a, b, "{what}: keys");
+            for (k, w) in o {
+                same_value(t.get(k), w, &format!("{what}.{k}"));
+            }
+        }
+        (Some(toml::Value::Array(a)), serde_json::Value::Array(b)) => {
+            assert_eq!(a.len(), b.len(), "{what}: length");
+            for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                same_value(Some(x), y, &format!("{what}[{i}]"));
+            }
+        }
+        (Some(toml::Value::String(a)), serde_json::Value::String(b)) => {
+            assert_eq!(a, b, "{what}")
+        }
+        (Some(x), serde_json::Value::Number(n)) => {
+            let g = x
+                .as_float()
+                .or_else(|| x.as_integer().map(|i| i as f64))
+                .unwrap_or_else(|| panic!("{what}: {x} is not a number"));
+            let w = n.as_f64().unwrap();
+            assert!((g - w).abs() <= 1e-6, "{what}: {g} against {w}");
+        }
+        (g, w) => panic!("{what}: {g:?} against {w}"),
+    }
+}
+
+fn json_f64s(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// `tools/blender/test_export/mesh_scene.py`'s surfaces.blend: each mesh's
+/// `[mesh.material]` as `surfaces_expected.json` says (Principled BSDF,
+/// Diffuse BSDF and Emission constants, image textures through the UV map
+/// with their colour spaces, a packed image written beside the PLYs, a node
+/// group read through, one [[mesh]] per material slot used, no table
+/// without a material), the warnings for what cannot be represented (each
+/// naming object, material, node and socket), and the PLYs' normals and
+/// UVs: the Sphere's, split at its UV seam and sharp equator, equal
+/// Blender's corner normals and UVs at every triangle corner; the Smooth
+/// ball's are Blender's vertex normals, one per vertex; flat meshes have
+/// none. Checks the exported files only: vdbphoton renders `[mesh.material]`
+/// once the surface shading lands (issue 50).
+#[test]
+fn blender_exports_surface_materials_normals_and_uvs() {
+    let Some(py) = bpy_python() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let cloud = dir.join("cloud.vdb");
+    ok(
+        run(
+            Command::new(BIN)
+                .args(["generate", "cloud"])
+                .arg(&cloud)
+                .args(["--res", "32"]),
+            "vdbphoton generate cloud",
+        ),
+        "vdbphoton generate cloud",
+    );
+    ok(
+        run(
+            Command::new(&py)
+                .arg(repo().join("tools/blender/test_export/mesh_scene.py"))
+                .arg(dir)
+                .arg("--cloud")
+                .arg(&cloud),
+            "mesh_scene.py",
+        ),
+        "mesh_scene.py",
+    );
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("surfaces_expected.json")).unwrap())
+            .unwrap();
+    let toml_path = dir.join("surfaces.toml");
+    let out = ok(
+        export(&py, &dir.join("surfaces.blend"), &toml_path, &[]),
+        "vdbphoton_export.py surfaces.blend",
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !stderr.contains("Traceback"),
+        "a Python traceback:\n{stderr}"
+    );
+    let warnings = exporter_lines(&out.stderr, "warning");
+    for w in &warnings {
+        eprintln!("exporter warning: {w}");
+    }
+    let want_warnings = expected["warnings"].as_array().unwrap();
+    for w in want_warnings {
+        let w = w.as_str().unwrap();
+        assert!(
+            warnings.iter().any(|x| x.starts_with(w)),
+            "no warning starting with {w:?} in {warnings:#?}"
+        );
+    }
+    // One each, and for Missing and Generated.
+    assert_eq!(warnings.len(), want_warnings.len(), "{warnings:#?}");
+
+    let doc: toml::Value = toml::from_str(&std::fs::read_to_string(&toml_path).unwrap()).unwrap();
+    let meshes = get(&doc, "mesh").as_array().unwrap();
+    let by_name: std::collections::BTreeMap<&str, &toml::Value> = meshes
+        .iter()
+        .map(|m| (m["name"].as_str().unwrap(), m))
+        .collect();
+    let want = expected["materials"].as_object().unwrap();
+    assert_eq!(
+        by_name.keys().copied().collect::<Vec<_>>(),
+        want.keys().map(String::as_str).collect::<Vec<_>>(),
+        "the exported meshes"
+    );
+    for (name, w) in want {
+        let m = by_name[name.as_str()];
+        same_value(m.get("material"), w, &format!("[[mesh]] '{name}' material"));
+    }
+    assert_eq!(by_name["Hold"]["holdout"].as_bool(), Some(true), "Hold");
+    assert!(
+        dir.join("surfaces_meshes/grey.png").is_file(),
+        "the TGA converted"
+    );
+    // The packed PNG, written beside the PLYs as it was packed.
+    let packed = std::fs::read(dir.join("surfaces_meshes/packed.png")).unwrap();
+    let hex: String = packed.iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(hex, expected["packed_png"].as_str().unwrap(), "packed.png");
+    let ply = |name: &str| read_ply_full(&dir.join(by_name[name]["file"].as_str().unwrap()));
+
+    // Flat meshes: positions only; a textured grid: s t, no normals.
+    for name in ["Plastic", "Matte", "Lamp", "Bare"] {
+        let p = ply(name);
+        assert_eq!(p.props, ["x", "y", "z"], "{name}");
+        assert_eq!(p.tris.len(), 12, "{name}");
+    }
+    for name in ["Two slots [Red]", "Two slots [Blue]"] {
+        let p = ply(name);
+        assert_eq!(p.tris.len(), 6, "{name}: three quads");
+        let used: std::collections::BTreeSet<i32> = p.tris.iter().flatten().copied().collect();
+        assert_eq!(used.len(), p.verts.len(), "{name}: only its own vertices");
+    }
+    let textured = ply("Textured");
+    assert_eq!(textured.props, ["x", "y", "z", "s", "t"]);
+    let corners = expected["texture_uvs"].as_array().unwrap();
+    assert_eq!(corners.len(), 3 * textured.tris.len());
+    for (i, t) in textured.tris.iter().enumerate() {
+        for c in 0..3 {
+            let w = json_f64s(&corners[3 * i + c]);
+            let v = t[c] as usize;
+            assert!(
+                max_diff(&textured.get(v, &["x", "y", "z", "s", "t"]), &w) < 1e-6,
+                "Textured: triangle {i} corner {c}"
+            );
+        }
+    }
+
+    // Sphere: split normals and UVs, corner by corner Blender's.
+    let sphere = ply("Sphere");
+    assert_eq!(sphere.props, ["x", "y", "z", "nx", "ny", "nz", "s", "t"]);
+    let corners = expected["sphere_corners"].as_array().unwrap();
+    assert_eq!(corners.len(), 3 * sphere.tris.len(), "Sphere: triangles");
+    let all = ["x", "y", "z", "nx", "ny", "nz", "s", "t"];
+    let mut worst = 0.0f64;
+    for (i, t) in sphere.tris.iter().enumerate() {
+        for c in 0..3 {
+            let w = json_f64s(&corners[3 * i + c]);
+            worst = worst.max(max_diff(&sphere.get(t[c] as usize, &all), &w));
+        }
+    }
+    assert!(worst < 1e-6, "Sphere: corners {worst} off Blender's");
+    // Deduplicated: no two vertices alike, fewer than the corners, more
+    // than the sphere's 266 vertices (split at the seam and the equator).
+    let distinct: std::collections::BTreeSet<Vec<u32>> = sphere
+        .verts
+        .iter()
+        .map(|v| v.iter().map(|x| x.to_bits()).collect())
+        .collect();
+    assert_eq!(
+        distinct.len(),
+        sphere.verts.len(),
+        "Sphere: repeated vertices"
+    );
+    assert!(
+        sphere.verts.len() > 266 && sphere.verts.len() < corners.len() / 2,
+        "Sphere: {} vertices",
+        sphere.verts.len()
+    );
+    eprintln!(
+        "Sphere: {} triangles, {} vertices (266 in Blender)",
+        sphere.tris.len(),
+        sphere.verts.len()
+    );
+    // Smooth ball: Blender's vertex normals, no split.
+    let ball = ply("Smooth ball");
+    assert_eq!(ball.props, ["x", "y", "z", "nx", "ny", "nz"]);
+    let normals = expected["ball_normals"].as_array().unwrap();
+    assert_eq!(ball.verts.len(), normals.len(), "Smooth ball: vertices");
+    for (v, w) in normals.iter().enumerate() {
+        let d = max_diff(&ball.get(v, &["nx", "ny", "nz"]), &json_f64s(w));
+        assert!(d < 1e-6, "Smooth ball: vertex {v} normal {d} off");
+    }
 }
 
 /// F12 of a scene with a shadow catcher ground and a holdout ball in front of

@@ -63,7 +63,30 @@ CLI):
              (matrix_world), `holdout`, `shadow_catcher` and `visibility`
              (the ray types that are off) as Cycles takes them (see
              mesh_instances()). An animated mesh in a sequence is warned
-             about (exported as at the current frame).
+             about (exported as at the current frame). The PLY holds the
+             normals Blender shades with (nx ny nz; none when every face
+             is flat) and the active render UV map (s t), vertices split
+             where their corners differ; a mesh with several material slots
+             becomes one PLY and one [[mesh]] per slot its faces use.
+  [mesh.material]  the slot's material as Cycles shades it
+             (SurfaceReader): the Surface of the Material Output active for
+             Cycles followed (through reroutes and node groups) to a
+             Principled BSDF (type "principled": base_color or
+             base_color_texture, roughness, metallic, ior,
+             specular_ior_level, specular_tint, emission_color,
+             emission_strength), a Diffuse BSDF ("diffuse": color or
+             color_texture, roughness) or an Emission ("emission": color,
+             strength). An Image Texture on Base Color or a Diffuse BSDF's
+             Color, through the UV map (an optional UV Map node, Texture
+             Coordinate UV, identity Mapping), becomes { file, colorspace }:
+             the file's absolute path; a packed image written into
+             '<stem>_meshes/' (other formats than PNG, JPEG, EXR converted
+             there); colorspace "srgb" or "linear". Anything else (other
+             nodes into a socket, transmission, coat, sheen, subsurface, a
+             normal map or bump, Mix and Add Shaders, other shaders, missing
+             or generated images) is one warning naming object, material,
+             node and socket, with the nearest supported shading written.
+             No material: no table (Cycles' default surface).
   [render] film_transparent = Film > Transparent (written when on).
 
 Warnings go to stderr as `vdbphoton_export: warning: ...`, each naming the
@@ -213,7 +236,11 @@ def to_toml(doc):
             lines.append(f"# {m['_comment']}")
         lines.append('[[mesh]]')
         for k, x in m.items():
-            if not k.startswith('_'):
+            if not k.startswith('_') and k != 'material':
+                lines.append(f'{k} = {toml_value(x)}')
+        if m.get('material') is not None:
+            lines.append('[mesh.material]')
+            for k, x in m['material'].items():
                 lines.append(f'{k} = {toml_value(x)}')
     return '\n'.join(lines) + '\n'
 
@@ -315,6 +342,13 @@ class Exporter:
         # beside it (None: meshes are not written, as for a dry run).
         self.scene_path = scene_path
         self.meshes = {}
+        self.texture_paths = {}
+        self.texture_files = {}
+        self.packed_written = {}
+        self.mesh_parts = {}
+        self.instances = 0
+        self.uv_told = set()
+        self.surfaces = SurfaceReader(self)
         self.checked = set()
         self.frames_arg = frames
         self.output_arg = output
@@ -1164,10 +1198,10 @@ class Exporter:
                               "(Blender renders its mesh)")
                 continue
             self.check_other(o)
-        if not doc['volume']:
-            raise ExportError(f"nothing to export: scene '{sc.name}' has no Volume object or "
-                              "smoke domain that could be exported")
         doc['mesh'] = self.export_meshes(objects)
+        if not doc['volume'] and not doc['mesh']:
+            raise ExportError(f"nothing to export: scene '{sc.name}' has no Volume object or "
+                              "smoke domain that could be exported, and no mesh")
         if not self.frames_arg and not any('#' in v['file'] or '{frame' in v['file']
                                            for v in doc['volume']):
             # A still (every volume one file): every frame of the range is
@@ -1331,8 +1365,9 @@ class Exporter:
         if found:
             keys = {f['key'] for f in found}
             tris = sum(len(self.meshes[k]['tri']) for k in keys)
-            self.note(f"meshes: {len(found)} instance{'s' if len(found) != 1 else ''} of "
-                      f"{len(keys)} distinct mesh{'es' if len(keys) != 1 else ''} ({tris} "
+            n, nm = self.instances, len({k[0] for k in keys})
+            self.note(f"meshes: {n} instance{'s' if n != 1 else ''} of "
+                      f"{nm} distinct mesh{'es' if nm != 1 else ''} ({tris} "
                       f"triangles) read in {time.time() - t0:.2f} s")
         return self.mesh_entries(found)
 
@@ -1402,7 +1437,8 @@ class Exporter:
 
     def add_instance(self, found, ob, parent, orig, vl, matrix, name, what, kind):
         """Appends instance `ob` (evaluated; `parent` its instancer, or `ob`)
-        to `found` unless Cycles renders nothing of it."""
+        to `found`, one entry per material slot its faces use, unless Cycles
+        renders nothing of it."""
         vis = {k: bool(getattr(ob, 'visible_' + k, True)) and
                bool(getattr(parent, 'visible_' + k, True)) for k in VISIBILITY_KEYS}
         holdout = bool(parent.holdout_get(view_layer=vl))
@@ -1411,15 +1447,17 @@ class Exporter:
         if not any(vis.values()):
             return  # Cycles does not render it at all
         shading = self.check_materials(ob, kind)
-        if shading in ('volume', 'none'):
+        if shading == 'volume':
             return
         if ob.type == 'MESH':
             key = ('data', ob.data.as_pointer())
         else:
             key = ('object', orig.as_pointer())
-        if key not in self.meshes:
-            self.meshes[key] = self.triangles(ob, what, orig.name)
-        if self.meshes[key] is None:
+        mats = slot_materials(ob)
+        if key not in self.mesh_parts:
+            self.mesh_parts[key] = self.triangles(ob, what, orig.name, len(mats), key)
+        parts = self.mesh_parts[key]
+        if parts is None:
             return
         m = matrix.copy()
         if not all(math.isfinite(m[i][j]) for i in range(4) for j in range(4)) or \
@@ -1427,15 +1465,67 @@ class Exporter:
             self.warn(f"{what}: its transform is not invertible (a scale of 0?) or not "
                       "finite; not exported")
             return
-        found.append({'key': key, 'name': name, 'what': what, 'matrix': m,
-                      'holdout': holdout or shading == 'holdout',
-                      'shadow_catcher': bool(ob.is_shadow_catcher or parent.is_shadow_catcher),
-                      'visibility': vis, 'objects': (orig, parent.original or parent)})
+        self.instances += 1
+        used = [mats[min(i, len(mats) - 1)] if mats else None for i in parts]
+        for idx, mat in zip(parts, used):
+            kind_, table = self.surfaces.read(orig.name, mat)
+            if kind_ == 'skip':
+                continue
+            if kind_ == 'material':
+                table = self.check_uvs(orig.name, mat, table, (key, idx))
+            mname = mat.name if mat is not None else 'no material'
+            if used.count(mat) > 1:
+                mname += f', slot {idx + 1}'
+            found.append({'key': (key, idx),
+                          'name': name if len(parts) == 1 else f'{name} [{mname}]',
+                          'what': what if len(parts) == 1 else f"{what}, material '{mname}'",
+                          'matrix': m,
+                          'holdout': holdout or shading == 'holdout' or kind_ == 'holdout',
+                          'shadow_catcher': bool(ob.is_shadow_catcher or
+                                                 parent.is_shadow_catcher),
+                          'visibility': vis, 'objects': (orig, parent.original or parent),
+                          # A Holdout shader is black to every other ray.
+                          'material': table if kind_ == 'material' else
+                          BLACK_SURFACE() if kind_ == 'holdout' else None})
 
-    def triangles(self, ob, what, label):
-        """{'co': float32 (n, 3), 'tri': int32 (m, 3), 'label'} of evaluated
-        object `ob` in its object space (loop triangles, read in bulk), or
-        None (warned about) when there is nothing to render."""
+    def check_uvs(self, obj_name, mat, table, part_key):
+        """A texture needs the mesh's UV map: without one (Blender reads the
+        texture at (0, 0)) the texture's socket value is written instead; a
+        texture asking for another UV map than the active render one (the
+        one exported) is warned about."""
+        uv_name = self.meshes[part_key].get('uv_name')
+        asked = self.surfaces.uv_maps_used(obj_name, mat)
+        tex = [k for k, v in table.items() if isinstance(v, TextureRef)]
+        if not tex:
+            return table
+        told = (obj_name, mat.name_full, 'uv')
+        if uv_name is None:
+            if told not in self.uv_told:
+                self.uv_told.add(told)
+                t = table[tex[0]]
+                self.warn(f"{t.what} reads the image through a UV map, but the mesh has "
+                          "none (Blender reads the image at (0, 0)); "
+                          f"'{tex[0].replace('_texture', '')}' = {t.fallback} used")
+            return {(k.replace('_texture', '') if k in tex else k):
+                    (v.fallback if k in tex else v) for k, v in table.items()}
+        other = sorted(n for n in asked if n not in ('', uv_name))
+        if other and told not in self.uv_told:
+            self.uv_told.add(told)
+            self.warn(f"mesh object '{obj_name}': material '{mat.name}' reads UV map "
+                      f"'{other[0]}', but only the active render UV map '{uv_name}' is "
+                      "exported; textures read through it")
+        return table
+
+    def triangles(self, ob, what, label, nslots, key):
+        """Reads evaluated object `ob` in its object space: its loop
+        triangles (read in bulk), the normals Blender shades with and the
+        active render UV map, vertices split where their corners differ, and
+        the triangles split by material slot (clamped to the slots, as
+        Cycles does). Stores each part {'co': float32 (n, 3), 'tri': int32
+        (m, 3), 'n': float32 (n, 3) or None (flat-shaded), 'uv': float32 (n,
+        2) or None, 'label', 'uv_name'} in self.meshes[(key, slot)] and
+        returns the slots, or None (warned about) when there is nothing to
+        render."""
         import numpy as np
         me, temporary = None, False
         try:
@@ -1458,15 +1548,10 @@ class Exporter:
                     return None
                 self.warn(f"{what} has no faces (nothing to render); not exported")
                 return None
-            co = np.empty(len(me.vertices) * 3, dtype=np.float32)
-            me.vertices.foreach_get('co', co)
-            tri = np.empty(len(me.loop_triangles) * 3, dtype=np.int32)
-            me.loop_triangles.foreach_get('vertices', tri)
+            co, tri, loops, corner_vert, mi, normals, uv, uv_name = read_mesh_arrays(me)
         finally:
             if temporary:
                 ob.to_mesh_clear()
-        co = co.reshape(-1, 3)
-        tri = tri.reshape(-1, 3)
         bad = ~np.isfinite(co).all(axis=1)
         repeated = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
         nonfinite = bad[tri].any(axis=1)
@@ -1481,12 +1566,40 @@ class Exporter:
             self.warn(f"{what}: {n} triangle{'s' if n != 1 else ''} with a repeated vertex "
                       "(no area) left out")
         if (repeated | nonfinite).any():
-            tri = tri[~(repeated | nonfinite)]
+            keep = ~(repeated | nonfinite)
+            tri, loops, mi = tri[keep], loops[keep], mi[keep]
         if len(tri) == 0:
             self.warn(f"{what} has no triangles left to render; not exported")
             return None
-        return {'co': np.ascontiguousarray(co), 'tri': np.ascontiguousarray(tri),
-                'label': label}
+        for name, arr in (('normals', normals[1] if normals else None), ('UVs', uv)):
+            if arr is not None and not np.isfinite(arr).all():
+                n = int((~np.isfinite(arr).all(axis=1)).sum())
+                self.warn(f"{what}: {n} {name} not a finite number; set to 0")
+                arr[~np.isfinite(arr)] = 0.0
+        co, tri, n, uv = split_corners(co, tri, loops, corner_vert, normals, uv)
+        slot = np.clip(mi, 0, max(nslots, 1) - 1)
+        used = np.unique(slot)
+        parts = []
+        for idx in used.tolist():
+            if len(used) == 1:
+                pco, ptri, pn, puv = co, tri, n, uv
+            else:
+                t = tri[slot == idx]
+                keep = np.unique(t)
+                remap = np.full(len(co), -1, dtype=np.int32)
+                remap[keep] = np.arange(len(keep), dtype=np.int32)
+                pco, ptri = co[keep], remap[t]
+                pn = n[keep] if n is not None else None
+                puv = uv[keep] if uv is not None else None
+            plabel = label
+            if len(used) > 1:
+                m = slot_materials(ob)
+                plabel = f"{label}_{m[idx].name if m and m[idx] is not None else 'no_material'}"
+            self.meshes[(key, idx)] = {'co': np.ascontiguousarray(pco),
+                                       'tri': np.ascontiguousarray(ptri), 'n': pn, 'uv': puv,
+                                       'label': plabel, 'uv_name': uv_name}
+            parts.append(idx)
+        return parts
 
     def mesh_entries(self, found):
         """The [[mesh]] entries (one per instance; instances of one mesh
@@ -1501,7 +1614,8 @@ class Exporter:
         if len(found) > MAX_MESH_ENTRIES:
             groups = {}
             for f in found:
-                flags = (f['holdout'], f['shadow_catcher'], tuple(f['visibility'].values()))
+                flags = (f['holdout'], f['shadow_catcher'], tuple(f['visibility'].values()),
+                         material_key(f['material']))
                 groups.setdefault(flags, []).append(f)
             merged_meshes = {}
             out = []
@@ -1511,26 +1625,20 @@ class Exporter:
                     raise ExportError(f"{len(found)} mesh instances with {ntri} triangles: too "
                                       f"many to merge into one mesh (at most "
                                       f"{MAX_MERGED_TRIANGLES}); realize fewer instances")
-                cos, tris, base = [], [], 0
-                for f in fs:
-                    d = self.meshes[f['key']]
-                    m = np.array(f['matrix'], dtype=np.float64)
-                    cos.append((d['co'].astype(np.float64) @ m[:3, :3].T + m[:3, 3])
-                               .astype(np.float32))
-                    tris.append(d['tri'] + base)
-                    base += len(d['co'])
                 key = ('merged', k)
-                merged_meshes[key] = {'co': np.concatenate(cos), 'tri': np.concatenate(tris),
-                                      'label': f'merged_{k + 1}'}
+                merged_meshes[key] = merge_world([(self.meshes[f['key']], f['matrix'])
+                                                  for f in fs])
+                merged_meshes[key]['label'] = f'merged_{k + 1}'
                 f0 = fs[0]
                 out.append({'key': key, 'name': f"{len(fs)} instances ({f0['name']}, ...)",
                             'what': f"{len(fs)} instances, merged", 'matrix': Matrix.Identity(4),
                             'holdout': f0['holdout'], 'shadow_catcher': f0['shadow_catcher'],
-                            'visibility': f0['visibility'], 'objects': ()})
+                            'visibility': f0['visibility'], 'objects': (),
+                            'material': f0['material']})
             self.warn(f"{len(found)} mesh instances: merged into {len(out)} world-space "
                       f"mesh{'es' if len(out) != 1 else ''} (one per combination of holdout, "
-                      f"shadow catcher and ray visibility), since more than {MAX_MESH_ENTRIES} "
-                      "[[mesh]] entries would make the scene file too large")
+                      f"shadow catcher, ray visibility and material), since more than "
+                      f"{MAX_MESH_ENTRIES} [[mesh]] entries would make the scene file too large")
             self.meshes = merged_meshes
             found = out
         entries = []
@@ -1542,6 +1650,8 @@ class Exporter:
             off = {k: False for k, v in f['visibility'].items() if not v}
             if off:
                 e['visibility'] = off
+            if f['material'] is not None:
+                e['material'] = f['material']
             entries.append(e)
         used = {e['_key'] for e in entries}
         self.meshes = {k: v for k, v in self.meshes.items() if k in used and v is not None}
@@ -1588,12 +1698,103 @@ class Exporter:
                     n += 1
                     name = f'{base}_{n}'
                 names.add(name.lower())
-                write_ply(os.path.join(folder, name + '.ply'), d['co'], d['tri'])
+                write_ply(os.path.join(folder, name + '.ply'), d['co'], d['tri'], d.get('n'),
+                          d.get('uv'))
                 files[k] = f'{folder_name}/{name}.ply'
             e['file'] = files[k]
+            if 'material' in e:
+                e['material'] = self.resolve_textures(e['material'], folder, folder_name,
+                                                      names)
         self.note(f"meshes: {len(files)} PLY file{'s' if len(files) != 1 else ''} written to "
                   f"{folder} in {time.time() - t0:.2f} s")
-        return {f.rsplit('/', 1)[1] for f in files.values()}
+        return {f.rsplit('/', 1)[1] for f in files.values()} | set(self.texture_files.values())
+
+    def resolve_textures(self, material, folder, folder_name, names):
+        """The material with each TextureRef made { file, colorspace }: an
+        image file vdbphoton reads, by its absolute path; a packed image
+        written into the mesh folder; another format converted there (PNG,
+        or EXR for float images). Where that fails, the socket's colour
+        (warned)."""
+        out = {}
+        for k, v in material.items():
+            if not isinstance(v, TextureRef):
+                out[k] = v
+                continue
+            ik = v.image.name_full
+            if ik not in self.texture_paths:
+                try:
+                    self.texture_paths[ik] = self.texture_file(v, folder, folder_name, names)
+                except (OSError, RuntimeError, ExportError) as e:
+                    self.warn(f"{v.what}: cannot write the image into {folder} ({e}); "
+                              f"'{k.replace('_texture', '')}' = {v.fallback} used")
+                    self.texture_paths[ik] = None
+            path = self.texture_paths[ik]
+            if path is None:
+                out[k.replace('_texture', '')] = v.fallback
+            else:
+                out[k] = {'file': path, 'colorspace': v.colorspace}
+        return out
+
+    def texture_file(self, t, folder, folder_name, names):
+        img = t.image
+        src = bpy.path.abspath(img.filepath, library=img.library) if img.filepath else ''
+        base = os.path.basename(src) or img.name
+        stem, ext = os.path.splitext(base)
+        stem = re.sub(r'[^A-Za-z0-9._-]+', '_', stem).strip('._') or 'texture'
+        if img.packed_file is not None:
+            data = bytes(img.packed_file.data)
+            ext = {b'\x89PNG': '.png', b'\xff\xd8\xff': '.jpg', b'v/1\x01': '.exr'}.get(
+                next((m for m in (b'\x89PNG', b'\xff\xd8\xff', b'v/1\x01')
+                      if data.startswith(m)), None), ext.lower())
+            if ext in TEXTURE_EXTENSIONS:
+                import hashlib
+                digest = hashlib.sha256(data).hexdigest()
+                if digest in self.packed_written:  # the same image packed twice
+                    self.texture_files[img.name_full] = self.packed_written[digest]
+                    return f'{folder_name}/{self.packed_written[digest]}'
+                name = self.texture_name(stem, ext, names)
+                self.packed_written[digest] = name
+                path = os.path.join(folder, name)
+                tmp = os.path.join(folder, f'.{name}.{os.getpid()}.tmp')
+                with open(tmp, 'wb') as f:
+                    f.write(data)
+                os.replace(tmp, path)
+                self.note(f"{t.what} is packed in the .blend; written to {path}")
+                self.texture_files[img.name_full] = name
+                return f'{folder_name}/{name}'
+        elif ext.lower() in TEXTURE_EXTENSIONS:
+            if os.path.dirname(os.path.abspath(src)) == os.path.abspath(folder):
+                self.texture_files[img.name_full] = os.path.basename(src)  # not stale
+            return src
+        # Another format: saved as PNG (or EXR for float images) by Blender.
+        ext = '.exr' if img.is_float else '.png'
+        name = self.texture_name(stem, ext, names)
+        path = os.path.join(folder, name)
+        c = img.copy()
+        try:
+            if not c.has_data:
+                c.pixels[0]  # noqa: B018 (loads the copy's buffer from the file)
+            c.filepath_raw = path
+            c.file_format = 'OPEN_EXR' if img.is_float else 'PNG'
+            c.save()
+        finally:
+            bpy.data.images.remove(c)
+        if not os.path.isfile(path):
+            raise ExportError('Blender wrote no file')
+        self.note(f"{t.what}: {'packed ' if img.packed_file is not None else ''}"
+                  f"{os.path.basename(src) or 'image'} is not PNG, JPEG or EXR; converted to "
+                  f"{path}")
+        self.texture_files[img.name_full] = name
+        return f'{folder_name}/{name}'
+
+    @staticmethod
+    def texture_name(stem, ext, names):
+        name, n = stem + ext, 1
+        while name.lower() in names:
+            n += 1
+            name = f'{stem}_{n}{ext}'
+        names.add(name.lower())
+        return name
 
 
 class MaterialContext:
@@ -1672,6 +1873,547 @@ class MaterialContext:
         return None
 
 
+# ------------------------------------------------------- surface materials
+
+# Blender's image colour spaces -> [mesh.material] texture colorspace.
+SRGB_SPACES = ('sRGB',)
+LINEAR_SPACES = ('Linear Rec.709', 'Non-Color', 'Raw', 'Linear', 'Utility - Raw',
+                 'Utility - Linear - sRGB')
+# Image files vdbphoton reads (by extension); others are converted.
+TEXTURE_EXTENSIONS = ('.png', '.jpg', '.jpeg', '.exr')
+# Cycles renders a missing image (and an Image Texture without one) magenta.
+MISSING_IMAGE = [1.0, 0.0, 1.0]
+# Principled BSDF inputs (Blender 4/5) that vdbphoton shades, as [mesh.material] keys.
+PRINCIPLED_SCALARS = (('Roughness', 'roughness'), ('Metallic', 'metallic'), ('IOR', 'ior'),
+                      ('Specular IOR Level', 'specular_ior_level'))
+PRINCIPLED_COLOURS = (('Specular Tint', 'specular_tint'), ('Emission Color', 'emission_color'))
+# Principled BSDF inputs whose effect vdbphoton does not render, with the value
+# that switches them off: a different value (or a link) is warned about.
+PRINCIPLED_OFF = (('Alpha', 1.0, 'transparency'), ('Diffuse Roughness', 0.0, 'diffuse roughness'),
+                  ('Subsurface Weight', 0.0, 'subsurface scattering'),
+                  ('Anisotropic', 0.0, 'anisotropy'),
+                  ('Transmission Weight', 0.0, 'transmission'), ('Coat Weight', 0.0, 'coat'),
+                  ('Sheen Weight', 0.0, 'sheen'), ('Thin Film Thickness', 0.0, 'thin film'))
+# Other shader nodes: what vdbphoton writes instead (with a warning).
+NEAREST_SHADER = {
+    'ShaderNodeBsdfGlossy': ('a Principled BSDF of Metallic 1', 'metal'),
+    'ShaderNodeBsdfAnisotropic': ('a Principled BSDF of Metallic 1', 'metal'),
+    'ShaderNodeBsdfMetallic': ('a Principled BSDF of Metallic 1', 'metal'),
+    'ShaderNodeBsdfGlass': ('an opaque Principled BSDF of its colour, roughness and IOR',
+                            'dielectric'),
+    'ShaderNodeBsdfRefraction': ('an opaque Principled BSDF of its colour, roughness and IOR',
+                                 'dielectric'),
+    'ShaderNodeBsdfTranslucent': ('a Diffuse BSDF of its colour', 'diffuse'),
+    'ShaderNodeBsdfSheen': ('a Diffuse BSDF of its colour', 'diffuse'),
+    'ShaderNodeBsdfToon': ('a Diffuse BSDF of its colour', 'diffuse'),
+    'ShaderNodeSubsurfaceScattering': ('a Diffuse BSDF of its colour', 'diffuse'),
+    'ShaderNodeBsdfHair': ('a Diffuse BSDF of its colour', 'diffuse'),
+    'ShaderNodeBsdfHairPrincipled': ('a Diffuse BSDF of its colour', 'diffuse'),
+    'ShaderNodeBackground': ('an Emission shader', 'emission'),
+}
+
+
+def upstream(sock, stack=()):
+    """What feeds input socket `sock` of a node tree, as Blender evaluates
+    it: through reroutes, muted nodes' pass-through links, into node groups
+    (to their Group Output) and out of them (from a Group Input to the group
+    node's socket; `stack` holds the group nodes entered). Returns (node,
+    output socket, stack) for a node, (None, socket, stack) when the value is
+    that socket's own (unlinked) value, (None, None, stack) when nothing
+    feeds it (a muted node without pass-through, an empty group)."""
+    for _ in range(10000):
+        links = [lk for lk in sock.links if lk.is_valid and not getattr(lk, 'is_muted', False)] \
+            if sock.is_linked else []
+        if not links:
+            return None, sock, stack
+        node, out = links[0].from_node, links[0].from_socket
+        if node.bl_idname == 'NodeReroute':
+            sock = node.inputs[0]
+            continue
+        if node.mute:
+            through = [lk for lk in node.internal_links
+                       if lk.to_socket.identifier == out.identifier]
+            if not through:
+                return None, None, stack
+            sock = through[0].from_socket
+            continue
+        if node.bl_idname in ('ShaderNodeGroup', 'NodeGroup') or \
+                (node.type == 'GROUP' and getattr(node, 'node_tree', None) is not None):
+            nt = node.node_tree
+            outs = [n for n in nt.nodes if n.bl_idname == 'NodeGroupOutput'] if nt else []
+            go = next((n for n in outs if n.is_active_output), outs[0] if outs else None)
+            s = next((x for x in go.inputs if x.identifier == out.identifier), None) \
+                if go is not None else None
+            if s is None:
+                return None, None, stack
+            sock, stack = s, stack + (node,)
+            continue
+        if node.bl_idname == 'NodeGroupInput':
+            if not stack:
+                return None, None, stack
+            s = next((x for x in stack[-1].inputs if x.identifier == out.identifier), None)
+            if s is None:
+                return None, None, stack
+            sock, stack = s, stack[:-1]
+            continue
+        return node, out, stack
+    return None, None, stack
+
+
+class TextureRef:
+    """An image a material reads, resolved to a file when the meshes are
+    written (Exporter.texture_file)."""
+
+    def __init__(self, image, colorspace, fallback, what):
+        self.image, self.colorspace, self.fallback, self.what = image, colorspace, fallback, what
+
+    def key(self):
+        return ('texture', self.image.name_full, self.colorspace)
+
+
+def material_key(m):
+    """A hashable form of a [mesh.material] table (textures by image)."""
+    if m is None:
+        return None
+
+    def k(v):
+        if isinstance(v, dict):
+            return tuple(sorted((a, k(b)) for a, b in v.items()))
+        if isinstance(v, list):
+            return tuple(k(x) for x in v)
+        if isinstance(v, TextureRef):
+            return v.key()
+        return v
+    return k(m)
+
+
+class SurfaceReader:
+    """A mesh's Blender material -> its [mesh.material] table, as Cycles
+    shades it: the surface output (the Material Output active for Cycles)
+    followed to a Principled BSDF, Diffuse BSDF or Emission shader, constant
+    inputs from the sockets, an Image Texture on a colour through the UV map.
+    Everything else is one warning naming object, material, node and socket,
+    with the nearest supported shading written."""
+
+    def __init__(self, ex):
+        self.ex = ex
+        self.cache = {}
+
+    def read(self, obj_name, mat):
+        """(kind, table): ('material', {...}), ('default', None) (Cycles'
+        default surface: no [mesh.material]), ('holdout', None) (a Holdout
+        shader), ('skip', None) (nothing vdbphoton can render: left out).
+        Warnings once per object and material."""
+        if mat is None:
+            return 'default', None
+        key = (obj_name, mat.name_full)
+        if key not in self.cache:
+            self.what = f"mesh object '{obj_name}': material '{mat.name}'"
+            self.uv_maps = set()
+            try:
+                r = self._read(mat)
+            except Exception as e:  # noqa: BLE001 (a warning, never a traceback)
+                self.ex.warn(f"{self.what} could not be read ({type(e).__name__}: {e}); "
+                             "exported with Blender's default surface")
+                r = ('default', None)
+            self.cache[key] = (r, set(self.uv_maps))
+        return self.cache[key][0]
+
+    def uv_maps_used(self, obj_name, mat):
+        """The UV map names the material's textures ask for ('' = the active
+        render map)."""
+        if mat is None:
+            return set()
+        return self.cache.get((obj_name, mat.name_full), (None, set()))[1]
+
+    # -- helpers
+
+    def warn(self, msg):
+        self.ex.warn(f"{self.what}{msg}")
+
+    @staticmethod
+    def nname(node, stack):
+        inside = ''.join(f" in group '{g.name}'" for g in reversed(stack))
+        return f"node '{node.name}'{inside}"
+
+    def _read(self, mat):
+        nt = mat.node_tree if uses_nodes(mat) else None
+        if nt is None:
+            # A material without nodes: Cycles renders its viewport colour
+            # as a diffuse surface.
+            c = rgb3(mat.diffuse_color)
+            return 'material', {'type': 'diffuse', 'color': self.finite_rgb(
+                c, [0.8, 0.8, 0.8], "(no nodes) viewport colour"), 'roughness': 0.0}
+        outs = [n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
+        act = [n for n in outs if n.is_active_output and n.target in ('ALL', 'CYCLES')] or \
+              [n for n in outs if n.target in ('ALL', 'CYCLES')] or \
+              [n for n in outs if n.is_active_output] or outs
+        if not act:
+            self.ex.note(f"{self.what} has no Material Output; Blender renders it black")
+            return 'material', BLACK_SURFACE()
+        out = act[0]
+        if out.inputs['Displacement'].is_linked:
+            src, _, st = upstream(out.inputs['Displacement'])
+            if src is not None:
+                self.warn(f" {self.nname(src, st)} ({src.bl_label}) drives 'Displacement' of "
+                          f"node '{out.name}': displacement and bump are not supported; "
+                          "exported without them")
+        src, sock, st = upstream(out.inputs['Surface'])
+        if src is None:
+            if out.inputs['Volume'].is_linked:
+                return 'skip', None  # a volume only (check_materials warned)
+            self.ex.note(f"{self.what} has no surface shader; Blender renders it black")
+            return 'material', BLACK_SURFACE()
+        return self.shader(src, sock, st, out, 'Surface')
+
+    def shader(self, node, sock, stack, into, into_socket, depth=0):
+        t = node.bl_idname
+        nn = self.nname(node, stack)
+        if depth > 50:
+            self.warn(f" {nn}: shaders nested too deep; Blender's default surface used")
+            return 'default', None
+        if t == 'ShaderNodeBsdfPrincipled':
+            return 'material', self.principled(node, stack)
+        if t == 'ShaderNodeBsdfDiffuse':
+            return 'material', self.diffuse(node, stack)
+        if t == 'ShaderNodeEmission':
+            return 'material', self.emission(node, stack)
+        if t == 'ShaderNodeHoldout':
+            return 'holdout', None
+        if t in ('ShaderNodeMixShader', 'ShaderNodeAddShader'):
+            return self.mix(node, stack, depth)
+        if t == 'ShaderNodeBsdfTransparent':
+            self.warn(f" {nn} (Transparent BSDF): transparent surfaces are not supported; the "
+                      "mesh is left out")
+            return 'skip', None
+        if t in NEAREST_SHADER:
+            desc, kind = NEAREST_SHADER[t]
+            self.warn(f" {nn} ({node.bl_label}) is not supported; exported as {desc}")
+            return 'material', self.nearest(node, stack, kind)
+        self.warn(f" {nn} ({node.bl_label}) drives '{into_socket}' of node '{into.name}' and "
+                  "is not a shader vdbphoton supports; exported with Blender's default surface")
+        return 'default', None
+
+    def mix(self, node, stack, depth):
+        """Mix Shader: a constant factor of 0 or 1 is its one input exactly;
+        otherwise the input with the larger weight (the first when the factor
+        is linked), warned about. Add Shader: a Principled BSDF plus an
+        Emission is the Principled BSDF with that emission (exact without
+        coat and sheen); otherwise its first input, warned about."""
+        nn = self.nname(node, stack)
+        shaders = [s for s in node.inputs if s.type == 'SHADER']
+        srcs = [upstream(s, stack) for s in shaders]
+        names = [f"'{s[0].name}'" if s[0] is not None else 'nothing' for s in srcs]
+        if node.bl_idname == 'ShaderNodeMixShader':
+            fs = upstream(node.inputs[0], stack)
+            if fs[0] is None and fs[1] is not None:
+                fac = float(fs[1].default_value)
+                pick = 0 if fac < 0.5 else 1
+                if not (fac <= 0.0 or fac >= 1.0):
+                    self.warn(f" {nn} (Mix Shader) mixes {names[0]} and {names[1]} by its "
+                              f"Factor {fac:g}, which vdbphoton does not support; exported as "
+                              f"{names[pick]} alone")
+            else:
+                pick = 0
+                what = f"node '{fs[0].name}'" if fs[0] is not None else 'a link'
+                self.warn(f" {nn} (Mix Shader) mixes {names[0]} and {names[1]} by {what} "
+                          "into its 'Factor', which vdbphoton does not support; exported as "
+                          f"{names[0]} alone")
+        else:
+            kinds = [s[0].bl_idname if s[0] is not None else None for s in srcs]
+            if sorted(kinds, key=str) == sorted(['ShaderNodeBsdfPrincipled', 'ShaderNodeEmission']):
+                p = kinds.index('ShaderNodeBsdfPrincipled')
+                e = 1 - p
+                kind, table = self.shader(srcs[p][0], srcs[p][1], srcs[p][2], node, 'Shader',
+                                          depth + 1)
+                em = self.emission(srcs[e][0], srcs[e][2])
+                if kind == 'material' and table.get('emission_strength', 0.0) == 0.0:
+                    table['emission_color'] = em['color']
+                    table['emission_strength'] = em['strength']
+                    return kind, table
+            pick = 0
+            self.warn(f" {nn} (Add Shader) adds {names[0]} and {names[1]}, which vdbphoton "
+                      f"does not support; exported as {names[0]} alone")
+        if srcs[pick][0] is None:
+            other = 1 - pick
+            if srcs[other][0] is None:
+                return 'material', BLACK_SURFACE()
+            pick = other
+        n, s, st = srcs[pick]
+        return self.shader(n, s, st, node, 'Shader', depth + 1)
+
+    def finite(self, v, default, what):
+        if math.isfinite(v):
+            return v
+        self.warn(f" {what} is {v}; Blender's default {default:g} used")
+        return default
+
+    def finite_rgb(self, c, default, what):
+        if all(math.isfinite(x) for x in c):
+            return rounded(c)
+        self.warn(f" {what} is {c}; Blender's default {default} used")
+        return list(default)
+
+    def scalar(self, node, stack, name):
+        """A number input: its value, or a Value node's; anything else is
+        warned about and the socket's own value used."""
+        s = node.inputs[name]
+        nn = self.nname(node, stack)
+        default = float(s.default_value)
+        src, out, st = upstream(s, stack)
+        if src is None:
+            v = float(out.default_value) if out is not None else default
+        elif src.bl_idname == 'ShaderNodeValue':
+            v = float(src.outputs[0].default_value)
+        else:
+            self.warn(f" {self.nname(src, st)} ({src.bl_label}) drives '{name}' of {nn}, "
+                      f"which vdbphoton does not support; '{name}' = {g7(default)} used")
+            v = default
+        return g7(self.finite(v, BLENDER_DEFAULTS.get(name, 0.0), f"{nn}: '{name}'"))
+
+    def colour(self, node, stack, name, texture_key=None):
+        """A colour input: its value, an RGB node's, or (when texture_key)
+        an Image Texture through the UV map -> (rgb or None, TextureRef or
+        None). Anything else is warned about and the socket's own value
+        used."""
+        s = node.inputs[name]
+        nn = self.nname(node, stack)
+        default = rgb3(s.default_value)
+        src, out, st = upstream(s, stack)
+        if src is None:
+            c = rgb3(out.default_value) if out is not None and \
+                hasattr(out, 'default_value') and len(out.default_value) >= 3 else default
+        elif src.bl_idname == 'ShaderNodeRGB':
+            c = rgb3(src.outputs[0].default_value)
+        elif src.bl_idname == 'ShaderNodeTexImage' and texture_key is not None:
+            return self.image_texture(src, out, st, node, stack, name, default)
+        else:
+            extra = ''
+            if src.bl_idname == 'ShaderNodeTexImage':
+                extra = ' (image textures are read on Base Color and a Diffuse BSDF\'s Color)'
+            self.warn(f" {self.nname(src, st)} ({src.bl_label}) drives '{name}' of {nn}, "
+                      f"which vdbphoton does not support{extra}; '{name}' = "
+                      f"{rounded(default, 4)} used")
+            c = default
+        return self.finite_rgb(c, BLENDER_DEFAULTS.get(name, [0.8, 0.8, 0.8]),
+                               f"{nn}: '{name}'"), None
+
+    def image_texture(self, tex, out, stack, node, node_stack, name, default):
+        """An Image Texture node feeding colour `name` of `node` -> (None,
+        TextureRef), or a constant colour (warned) when vdbphoton cannot
+        read it as Cycles does."""
+        tn = self.nname(tex, stack)
+        into = f"'{name}' of {self.nname(node, node_stack)}"
+        img = tex.image
+        if out.identifier != 'Color':
+            self.warn(f" {tn} (Image Texture): its {out.name} output drives {into}, which "
+                      f"vdbphoton does not support; '{name}' = {rounded(default, 4)} used")
+            return rounded(default), None
+        if img is None:
+            self.warn(f" {tn} (Image Texture) has no image: Blender renders it magenta; "
+                      f"{into} = {MISSING_IMAGE} used")
+            return list(MISSING_IMAGE), None
+        iname = f"image '{img.name}'"
+        if img.source == 'GENERATED':
+            c = rgb3(img.generated_color)
+            how = 'its colour' if img.generated_type == 'BLANK' else \
+                f"its base colour (Blender draws a {img.generated_type.lower().replace('_', ' ')})"
+            self.warn(f" {tn} (Image Texture): {iname} is generated in Blender, not a file; "
+                      f"{into} = {how} {rounded(c, 4)} used")
+            return self.finite_rgb(c, [0.8, 0.8, 0.8], f"{tn}: {iname} colour"), None
+        if img.source != 'FILE':
+            self.warn(f" {tn} (Image Texture): {iname} is a {img.source.lower()} (only single "
+                      f"image files are supported); {into} = {rounded(default, 4)} used")
+            return rounded(default), None
+        if img.packed_file is None:
+            path = bpy.path.abspath(img.filepath, library=img.library)
+            if not os.path.isfile(path):
+                self.warn(f" {tn} (Image Texture): {iname} file {path} does not exist: Blender "
+                          f"renders it magenta; {into} = {MISSING_IMAGE} used")
+                return list(MISSING_IMAGE), None
+        cs_name = img.colorspace_settings.name
+        if cs_name == 'Working Space':
+            cs_name = getattr(getattr(bpy.data, 'colorspace', None), 'working_space',
+                              'Linear Rec.709')
+        if cs_name in SRGB_SPACES:
+            cs = 'srgb'
+        elif cs_name in LINEAR_SPACES or img.colorspace_settings.is_data:
+            cs = 'linear'
+        else:
+            cs = 'srgb' if not img.is_float else 'linear'
+            self.warn(f" {tn} (Image Texture): {iname} colour space '{cs_name}' is not "
+                      f"supported (sRGB, Linear Rec.709, Non-Color are); read as \"{cs}\"")
+        if tex.projection != 'FLAT':
+            self.warn(f" {tn} (Image Texture): projection {tex.projection.title()} is not "
+                      "supported; read as Flat through the UV map")
+        if tex.extension != 'REPEAT':
+            self.warn(f" {tn} (Image Texture): extension {tex.extension.title()} is not "
+                      "supported; read as Repeat")
+        if tex.interpolation != 'Linear':
+            self.warn(f" {tn} (Image Texture): interpolation {tex.interpolation} is not "
+                      "supported; read as Linear")
+        self.uv_chain(tex, stack)
+        return None, TextureRef(img, cs, rounded(default), f"{self.what} {tn}, {iname}")
+
+    def uv_chain(self, tex, stack):
+        """The texture's coordinates must be the UV map: the Vector input
+        unlinked, or a UV Map node / Texture Coordinate's UV, through Mapping
+        nodes that change nothing."""
+        sock, st = tex.inputs['Vector'], stack
+        tn = self.nname(tex, stack)
+        into_node, into_name = tex, 'Vector'
+        while True:
+            src, out, st2 = upstream(sock, st)
+            if src is None:
+                if out is sock or out is None:
+                    self.uv_maps.add('')
+                    return
+                self.warn(f" {tn} (Image Texture): its coordinates are a group input's "
+                          "constant; read through the UV map")
+                self.uv_maps.add('')
+                return
+            sn = self.nname(src, st2)
+            if src.bl_idname == 'ShaderNodeUVMap':
+                if getattr(src, 'from_instancer', False):
+                    self.warn(f" {sn} (UV Map) reads the instancer's UV map, which is not "
+                              "supported; the mesh's own used")
+                self.uv_maps.add(src.uv_map)
+                return
+            if src.bl_idname == 'ShaderNodeTexCoord' and out.identifier == 'UV':
+                if getattr(src, 'from_instancer', False):
+                    self.warn(f" {sn} (Texture Coordinate) reads the instancer's UV map, which "
+                              "is not supported; the mesh's own used")
+                self.uv_maps.add('')
+                return
+            if src.bl_idname == 'ShaderNodeMapping':
+                I = src.inputs
+                ident = src.vector_type in ('POINT', 'TEXTURE', 'VECTOR')
+                for k, want in (('Location', 0.0), ('Rotation', 0.0), ('Scale', 1.0)):
+                    if k not in I or not I[k].enabled:
+                        continue
+                    if I[k].is_linked or any(abs(float(x) - want) > 1e-7
+                                             for x in I[k].default_value):
+                        ident = False
+                if not ident:
+                    self.warn(f" {sn} (Mapping) transforms the coordinates of {tn}, which "
+                              "vdbphoton does not support; read without it")
+                sock, st, into_node, into_name = I['Vector'], st2, src, 'Vector'
+                if not sock.is_linked:
+                    self.warn(f" {sn} (Mapping) has no input vector (Blender reads the "
+                              f"texture at (0, 0, 0)); read through the UV map instead")
+                    self.uv_maps.add('')
+                    return
+                continue
+            what = f"{out.name} of " if out is not None and len(src.outputs) > 1 else ''
+            self.warn(f" {sn} ({src.bl_label}) drives '{into_name}' of "
+                      f"{self.nname(into_node, st)}: {what}texture coordinates other than the "
+                      "UV map are not supported; read through the UV map")
+            self.uv_maps.add('')
+            return
+
+    def check_off(self, node, stack, inputs):
+        """Inputs whose effect vdbphoton does not render: warned about when
+        they are not at the value that switches them off."""
+        nn = self.nname(node, stack)
+        for name, off, feature in inputs:
+            if name not in node.inputs:
+                continue
+            s = node.inputs[name]
+            src, out, st = upstream(s, stack)
+            if src is not None:
+                self.warn(f" {self.nname(src, st)} ({src.bl_label}) drives '{name}' of {nn}: "
+                          f"{feature} is not supported; exported without it")
+            elif out is not None and float(out.default_value) != off:
+                self.warn(f" {nn}: '{name}' is {g7(out.default_value)}: {feature} is not "
+                          "supported; exported without it")
+
+    def check_normal(self, node, stack, names=('Normal',)):
+        for name in names:
+            if name in node.inputs:
+                src, _, st = upstream(node.inputs[name], stack)
+                if src is not None:
+                    self.warn(f" {self.nname(src, st)} ({src.bl_label}) drives '{name}' of "
+                              f"{self.nname(node, stack)}: normal maps and bump are not "
+                              "supported; exported with the mesh's normals")
+
+    # -- shaders
+
+    def principled(self, node, stack):
+        m = {'type': 'principled'}
+        c, tex = self.colour(node, stack, 'Base Color', texture_key='base_color_texture')
+        if tex is not None:
+            m['base_color_texture'] = tex
+        else:
+            m['base_color'] = c
+        if 'Specular IOR Level' not in node.inputs:
+            # Blender 3's Principled BSDF (Specular, Clearcoat, ...).
+            self.warn(f" {self.nname(node, stack)} is a Principled BSDF of Blender 3, whose "
+                      "inputs differ from Blender 4's: Base Color, Roughness, Metallic, IOR "
+                      "and the emission are read, the rest left at Blender 4's defaults (open "
+                      "and save the file in Blender 4 or later for a faithful export)")
+            for sock, key in PRINCIPLED_SCALARS + (('Emission Strength', 'emission_strength'),):
+                m[key] = self.scalar(node, stack, sock) if sock in node.inputs else \
+                    BLENDER_DEFAULTS[sock]
+            m['specular_tint'] = [1.0, 1.0, 1.0]
+            m['emission_color'] = self.colour(node, stack, 'Emission')[0] \
+                if 'Emission' in node.inputs else [1.0, 1.0, 1.0]
+            return m
+        for sock, key in PRINCIPLED_SCALARS:
+            m[key] = self.scalar(node, stack, sock)
+        for sock, key in PRINCIPLED_COLOURS:
+            m[key] = self.colour(node, stack, sock)[0]
+        m['emission_strength'] = self.scalar(node, stack, 'Emission Strength')
+        self.check_off(node, stack, PRINCIPLED_OFF)
+        self.check_normal(node, stack, ('Normal',))
+        if getattr(node, 'distribution', 'MULTI_GGX') != 'MULTI_GGX':
+            self.warn(f" {self.nname(node, stack)}: distribution {node.distribution} is not "
+                      "supported; exported as Multiscatter GGX (Blender's default)")
+        return m
+
+    def diffuse(self, node, stack):
+        m = {'type': 'diffuse'}
+        c, tex = self.colour(node, stack, 'Color', texture_key='color_texture')
+        if tex is not None:
+            m['color_texture'] = tex
+        else:
+            m['color'] = c
+        m['roughness'] = self.scalar(node, stack, 'Roughness')
+        self.check_normal(node, stack)
+        return m
+
+    def emission(self, node, stack):
+        c, _ = self.colour(node, stack, 'Color')
+        return {'type': 'emission', 'color': c, 'strength': self.scalar(node, stack, 'Strength')}
+
+    def nearest(self, node, stack, kind):
+        """The supported shading nearest to an unsupported shader node."""
+        cname = 'Base Color' if 'Base Color' in node.inputs else 'Color'
+        c = self.colour(node, stack, cname)[0] if cname in node.inputs else [0.8, 0.8, 0.8]
+        rough = self.scalar(node, stack, 'Roughness') if 'Roughness' in node.inputs else 0.5
+        if kind == 'diffuse':
+            return {'type': 'diffuse', 'color': c, 'roughness': 0.0}
+        if kind == 'emission':
+            return {'type': 'emission', 'color': c,
+                    'strength': self.scalar(node, stack, 'Strength')}
+        m = {'type': 'principled', 'base_color': c, 'roughness': rough,
+             'metallic': 1.0 if kind == 'metal' else 0.0}
+        if kind == 'dielectric' and 'IOR' in node.inputs:
+            m['ior'] = self.scalar(node, stack, 'IOR')
+        return m
+
+
+def BLACK_SURFACE():
+    """What Cycles renders of a material without a surface shader: black."""
+    return {'type': 'diffuse', 'color': [0.0, 0.0, 0.0], 'roughness': 0.0}
+
+
+# Blender's defaults of the shader inputs read (the value written for NaN).
+BLENDER_DEFAULTS = {'Base Color': [0.8, 0.8, 0.8], 'Roughness': 0.5, 'Metallic': 0.0,
+                    'IOR': 1.5, 'Specular IOR Level': 0.5, 'Specular Tint': [1.0, 1.0, 1.0],
+                    'Emission Color': [1.0, 1.0, 1.0], 'Emission Strength': 0.0,
+                    'Color': [0.8, 0.8, 0.8], 'Strength': 1.0}
+
+
 RAY_VISIBILITY = ('visible_camera', 'visible_diffuse', 'visible_glossy', 'visible_transmission',
                   'visible_volume_scatter', 'visible_shadow')
 
@@ -1743,14 +2485,176 @@ def is_animated(o):
     return False
 
 
-def write_ply(path, co, tri):
-    """A binary little-endian PLY (vertex float x y z; face list uchar int
-    vertex_indices) written atomically; raises ExportError."""
+def slot_materials(ob):
+    """The materials of evaluated object `ob`'s slots, as Cycles takes them
+    (None for an empty slot); [] without slots."""
+    mats = [s.material for s in getattr(ob, 'material_slots', [])]
+    if not mats and getattr(ob, 'type', None) == 'MESH' and ob.data is not None:
+        mats = list(ob.data.materials)
+    return mats
+
+
+def read_mesh_arrays(me):
+    """Mesh `me`'s arrays, read in bulk: vertex positions (n, 3), loop
+    triangles' vertices and corners (m, 3), their material indices (m,),
+    the corners' vertices (corners,), the normals Blender shades with: None
+    (every face flat), ('point', (n, 3)
+    vertex normals: smooth without sharp edges) or ('corner', (corners, 3):
+    Blender 4.1+'s corner_normals, flat faces' own normal, split and custom
+    normals), and the active render UV map (corners, 2) and its name, or
+    None, None."""
     import numpy as np
+    nv, nt, nl = len(me.vertices), len(me.loop_triangles), len(me.loops)
+    co = np.empty(nv * 3, dtype=np.float32)
+    me.vertices.foreach_get('co', co)
+    loops = np.empty(nt * 3, dtype=np.int32)
+    me.loop_triangles.foreach_get('loops', loops)
+    attrs = getattr(me, 'attributes', None)
+    cv = attrs.get('.corner_vert') if attrs is not None else None
+    if cv is not None and cv.domain == 'CORNER' and len(cv.data) == nl:
+        # Blender 4+: the corners' vertices, read raw (3 x faster).
+        corner_vert = np.empty(nl, dtype=np.int32)
+        cv.data.foreach_get('value', corner_vert)
+    else:
+        corner_vert = np.empty(nl, dtype=np.int32)
+        me.loops.foreach_get('vertex_index', corner_vert)
+    tri = corner_vert[loops]
+    if hasattr(me, 'loop_triangle_polygons'):
+        ltp = np.empty(nt, dtype=np.int32)
+        me.loop_triangle_polygons.foreach_get('value', ltp)
+        ma = attrs.get('material_index')
+        if ma is not None and ma.domain == 'FACE' and ma.data_type == 'INT':
+            pm = np.empty(len(me.polygons), dtype=np.int32)
+            ma.data.foreach_get('value', pm)
+            mi = pm[ltp]
+        else:
+            mi = np.zeros(nt, dtype=np.int32)
+    else:
+        mi = np.empty(nt, dtype=np.int32)
+        me.loop_triangles.foreach_get('material_index', mi)
+    normals = None
+    if hasattr(me, 'normals_domain'):  # Blender 4.1+
+        dom = me.normals_domain
+        if dom == 'POINT':
+            n = np.empty(nv * 3, dtype=np.float32)
+            me.vertex_normals.foreach_get('vector', n)
+            normals = ('point', n.reshape(-1, 3))
+        elif dom == 'CORNER':
+            n = np.empty(nl * 3, dtype=np.float32)
+            me.corner_normals.foreach_get('vector', n)
+            normals = ('corner', n.reshape(-1, 3))
+    else:  # Blender 3.x: split normals (flat faces get their face normal)
+        smooth = np.zeros(len(me.polygons), dtype=bool)
+        me.polygons.foreach_get('use_smooth', smooth)
+        if smooth.any():
+            me.calc_normals_split()
+            n = np.empty(nl * 3, dtype=np.float32)
+            me.loops.foreach_get('normal', n)
+            normals = ('corner', n.reshape(-1, 3))
+    uv, uv_name = None, None
+    layer = next((u for u in me.uv_layers if u.active_render), None)
+    if layer is not None and nl:
+        uv = np.empty(nl * 2, dtype=np.float32)
+        if hasattr(layer, 'uv'):
+            layer.uv.foreach_get('vector', uv)
+        else:
+            layer.data.foreach_get('uv', uv)
+        uv, uv_name = uv.reshape(-1, 2), layer.name
+    return (co.reshape(-1, 3), tri.reshape(-1, 3), loops.reshape(-1, 3), corner_vert, mi,
+            normals, uv, uv_name)
+
+
+def merge_world(items):
+    """Meshes (self.meshes parts) through their matrices, merged into one
+    world-space mesh. Normals go through the inverse transpose; a mesh
+    without normals among ones with them gets its face normals (its
+    triangles' corners split), one without UVs (0, 0)."""
+    import numpy as np
+    with_n = any(d['n'] is not None for d, _ in items)
+    with_uv = any(d['uv'] is not None for d, _ in items)
+    cos, tris, ns, uvs, base = [], [], [], [], 0
+    for d, mat in items:
+        m = np.array(mat, dtype=np.float64)
+        co, tri, n, uv = d['co'], d['tri'], d['n'], d['uv']
+        if with_n and n is None:
+            corners = tri.reshape(-1)
+            co, uv = co[corners], (uv[corners] if uv is not None else None)
+            tri = np.arange(len(corners), dtype=np.int32).reshape(-1, 3)
+            p = co.reshape(-1, 3, 3).astype(np.float64)
+            fn = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+            fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
+            n = np.repeat(fn, 3, axis=0)
+        cos.append((co.astype(np.float64) @ m[:3, :3].T + m[:3, 3]).astype(np.float32))
+        if with_n:
+            w = n.astype(np.float64) @ np.linalg.inv(m[:3, :3])
+            w /= np.maximum(np.linalg.norm(w, axis=1, keepdims=True), 1e-300)
+            ns.append(w.astype(np.float32))
+        if with_uv:
+            uvs.append(uv if uv is not None else np.zeros((len(co), 2), dtype=np.float32))
+        if np.linalg.det(m[:3, :3]) < 0:
+            tri = tri[:, [0, 2, 1]]  # keep the winding outward, as Cycles does
+        tris.append(tri + base)
+        base += len(co)
+    return {'co': np.concatenate(cos), 'tri': np.concatenate(tris),
+            'n': np.concatenate(ns) if with_n else None,
+            'uv': np.concatenate(uvs) if with_uv else None}
+
+
+def split_corners(co, tri, loops, corner_vert, normals, uv):
+    """Per-vertex normals and UVs from per-corner (loop) ones: a vertex
+    whose corners all agree keeps its index; each other distinct (vertex,
+    normal, UV) becomes a new vertex after the original ones. Works on the
+    mesh's corners (4 a quad, not 6), in numpy without a loop over them.
+    Returns (co, tri, n or None, uv or None)."""
+    import numpy as np
+    nv = len(co)
+    corner = normals is not None and normals[0] == 'corner'
+    vn = normals[1] if normals is not None and normals[0] == 'point' else None
+    cols = ([normals[1]] if corner else []) + ([uv] if uv is not None else [])
+    if not cols:
+        return co, tri, vn, None
+    attr = np.ascontiguousarray(np.concatenate(cols, axis=1) if len(cols) > 1 else cols[0],
+                                dtype=np.float32)
+    k = attr.shape[1]
+    rep = np.zeros((nv, k), dtype=np.float32)
+    if corner:
+        rep[:, 2] = 1.0  # vertices no corner uses
+    rep[corner_vert] = attr  # one corner's values per vertex
+    same = (attr == rep[corner_vert]).all(axis=1)
+    diff = np.flatnonzero(~same)
+    if len(diff):
+        keys = np.empty((len(diff), k + 1), dtype=np.uint32)
+        keys[:, 0] = corner_vert[diff]
+        keys[:, 1:] = attr[diff].view(np.uint32)
+        rows = keys.view(np.dtype((np.void, 4 * (k + 1)))).ravel()
+        _, first, inv = np.unique(rows, return_index=True, return_inverse=True)
+        new_vert = corner_vert.copy()
+        new_vert[diff] = nv + inv.reshape(-1)
+        vmap = np.concatenate([np.arange(nv), keys[first, 0].astype(np.int64)])
+        rep = np.concatenate([rep, attr[diff[first]]])
+        co = co[vmap]
+        if vn is not None:
+            vn = vn[vmap]
+        tri = new_vert[loops].astype(np.int32)
+    n = rep[:, :3] if corner else vn
+    return co, tri, n, (rep[:, -2:] if uv is not None else None)
+
+
+def write_ply(path, co, tri, n=None, uv=None):
+    """A binary little-endian PLY (vertex float x y z, then nx ny nz with
+    normals, s t with UVs; face list uchar int vertex_indices) written
+    atomically; raises ExportError."""
+    import numpy as np
+    props = ['x', 'y', 'z'] + (['nx', 'ny', 'nz'] if n is not None else []) + \
+        (['s', 't'] if uv is not None else [])
     header = ('ply\nformat binary_little_endian 1.0\ncomment vdbphoton_export.py\n'
-              f'element vertex {len(co)}\nproperty float x\nproperty float y\n'
-              f'property float z\nelement face {len(tri)}\n'
+              f'element vertex {len(co)}\n' +
+              ''.join(f'property float {p}\n' for p in props) +
+              f'element face {len(tri)}\n'
               'property list uchar int vertex_indices\nend_header\n')
+    cols = [co] + ([n] if n is not None else []) + ([uv] if uv is not None else [])
+    verts = np.ascontiguousarray(np.concatenate(cols, axis=1) if len(cols) > 1 else co,
+                                 dtype='<f4')
     faces = np.empty(len(tri), dtype=np.dtype([('n', 'u1'), ('v', '<i4', (3,))]))
     faces['n'] = 3
     faces['v'] = tri
@@ -1759,7 +2663,7 @@ def write_ply(path, co, tri):
     try:
         with open(tmp, 'wb') as f:
             f.write(header.encode('ascii'))
-            f.write(np.ascontiguousarray(co, dtype='<f4').tobytes())
+            f.write(verts.tobytes())
             f.write(faces.tobytes())
         os.replace(tmp, path)
     except OSError as e:
@@ -1938,24 +2842,34 @@ def export_scene(path, scene=None, view_layer=None, warn=None, **kw):
             (view_layer or scene.view_layers[0]).update()
         except (RuntimeError, AttributeError):
             pass
-    ex = Exporter(scene, view_layer=view_layer, warn=warn, scene_path=path, **kw)
-    doc = ex.export()
-    written = ex.write_meshes(doc['mesh'], path)
-    write_scene(path, to_toml(doc))
-    remove_stale_meshes(path, written)
+    try:
+        ex = Exporter(scene, view_layer=view_layer, warn=warn, scene_path=path, **kw)
+        doc = ex.export()
+        written = ex.write_meshes(doc['mesh'], path)
+        write_scene(path, to_toml(doc))
+        remove_stale_meshes(path, written)
+    except ExportError:
+        raise
+    except Exception as e:  # noqa: BLE001 (one clean error, never a traceback)
+        import traceback
+        tb = traceback.extract_tb(e.__traceback__)
+        where = f' (vdbphoton_export.py line {tb[-1].lineno}, {tb[-1].name})' if tb else ''
+        msg = str(e).strip().splitlines()[-1] if str(e).strip() else ''
+        raise ExportError(f"the export failed: {type(e).__name__}{': ' + msg if msg else ''}"
+                          f"{where}; please report it") from None
     return ex
 
 
 def remove_stale_meshes(path, written):
-    """Removes the .ply files of an earlier export from the scene's mesh
-    folder ('<stem>_meshes/', which belongs to the scene file) that this
-    export did not write."""
+    """Removes the .ply files (and textures) of an earlier export from the
+    scene's mesh folder ('<stem>_meshes/', which belongs to the scene file)
+    that this export did not write."""
     stem = os.path.splitext(os.path.basename(path))[0]
     folder = os.path.join(os.path.dirname(os.path.abspath(path)), f'{stem}_meshes')
     if not os.path.isdir(folder):
         return
     for name in os.listdir(folder):
-        if name.endswith('.ply') and name not in written:
+        if name.lower().endswith(('.ply',) + TEXTURE_EXTENSIONS) and name not in written:
             try:
                 os.unlink(os.path.join(folder, name))
             except OSError:
