@@ -184,7 +184,7 @@ impl Light {
 
 /// A sphere around everything that can interact with light (the volumes'
 /// bounds): lights at infinity emit photons from a disk of its radius, and
-/// point lights aim at it.
+/// point lights aim at it ([`Beyond`] for the surfaces around it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoundingSphere {
     pub center: Vec3,
@@ -208,6 +208,73 @@ impl BoundingSphere {
         let q = sampling::sample_uniform_disk_concentric(u) * self.radius;
         let o = self.center + w * (2.0 * self.radius) + t * q.x + b * q.y;
         (o, PI * self.radius * self.radius)
+    }
+}
+
+/// The light that misses the volumes but may still reach them by a
+/// surface: rays through the sphere `outer` (around the volumes and every
+/// surface that reflects) that miss `inner` (around the volumes), which
+/// [`Light::sample_le`] leaves out. A ground far wider than the smoke
+/// reflects light into it from everywhere under it; photons aimed at the
+/// volumes alone never carry that light (it was 6 % of the smoke's
+/// brightness over issue 50's grey ground).
+///
+/// Lights at infinity emit into the annulus around `inner`'s disk that
+/// covers `outer`'s, with a radius ρ log-uniform between the two (density
+/// ∝ 1/ρ² over the annulus): the share of a ground point's reflection
+/// that reaches the volumes falls as 1/ρ², so each photon carries about as
+/// much of that light wherever it lands, and a ground a hundred times the
+/// smoke's size costs no more photons than one twice its size. Point
+/// lights emit into the zone of directions between the cone around
+/// `inner` and the one around `outer`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Beyond {
+    pub inner: BoundingSphere,
+    pub outer: BoundingSphere,
+}
+
+impl Beyond {
+    /// The annulus' outer radius around the inner sphere's centre: enough
+    /// to cover the outer sphere's disk from any direction.
+    fn reach(&self) -> f32 {
+        self.outer.radius + (self.outer.center - self.inner.center).length()
+    }
+
+    /// The annulus' area.
+    fn area(&self) -> f32 {
+        let (r0, r1) = (self.inner.radius, self.reach());
+        PI * (r1 * r1 - r0 * r0).max(0.0)
+    }
+
+    /// A ray arriving from direction `w` through the annulus (log-uniform
+    /// radius, uniform angle), its origin beyond everything in `outer`, and
+    /// the inverse of its density per unit area.
+    fn annulus_ray(&self, w: Vec3, u: Vec2) -> (Vec3, f32) {
+        let (r0, r1) = (self.inner.radius, self.reach());
+        let l = (r1 / r0).ln();
+        let rho = r0 * (l * u.x).exp();
+        let phi = 2.0 * PI * u.y;
+        let (t, b) = sampling::coordinate_system(w);
+        let o = self.inner.center + w * (2.0 * r1) + t * (rho * phi.cos()) + b * (rho * phi.sin());
+        (o, 2.0 * PI * rho * rho * l)
+    }
+
+    /// The zone of directions from `position` between the cone around
+    /// `inner` and the one around `outer`, as (cos of its inner edge, cos
+    /// of its outer edge, axis); `None` when it is empty (the point inside
+    /// `inner`).
+    fn zone(&self, position: Vec3) -> Option<(f32, f32, Vec3)> {
+        let cos_in = point_cone(position, self.inner)?;
+        let axis = (self.inner.center - position).normalize();
+        let cos_out = match point_cone(position, self.outer) {
+            None => -1.0,
+            Some(c) => {
+                let to = (self.outer.center - position).normalize();
+                let angle = axis.dot(to).clamp(-1.0, 1.0).acos() + c.clamp(-1.0, 1.0).acos();
+                angle.min(PI).cos()
+            }
+        };
+        (cos_out < cos_in).then_some((cos_in, cos_out, axis))
     }
 }
 
@@ -321,6 +388,76 @@ impl Light {
                     power: intensity * (falloff / sampling::uniform_cone_pdf(cos_half)),
                 })
             }
+        }
+    }
+}
+
+impl Light {
+    /// The power (W) the light sends into `beyond` as
+    /// [`Self::sample_le_beyond`] samples it: a sun through the whole
+    /// annulus, a point light into the zone; a spot's photons already fill
+    /// its cone ([`Self::sample_le`]), so none.
+    pub fn power_beyond(&self, beyond: Beyond) -> Rgb {
+        match *self {
+            Light::Sun { value, cos_max, .. } => {
+                let area = beyond.area();
+                if cos_max >= 1.0 {
+                    value * area
+                } else {
+                    value * (area * 2.0 * PI * (1.0 - cos_max))
+                }
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => beyond
+                .zone(position)
+                .map_or(Rgb::ZERO, |(ci, co, _)| intensity * (2.0 * PI * (ci - co))),
+            Light::Spot { .. } => Rgb::ZERO,
+        }
+    }
+
+    /// Samples a photon leaving the light into `beyond` from four uniform
+    /// numbers (see [`Beyond`]).
+    pub fn sample_le_beyond(&self, beyond: Beyond, u: Vec2, v: Vec2) -> Option<EmittedRay> {
+        match *self {
+            Light::Sun {
+                dir,
+                value,
+                cos_max,
+                frame,
+            } => {
+                let (w, power_per_area) = if cos_max >= 1.0 {
+                    (dir, value)
+                } else {
+                    let l = sampling::sample_uniform_cone(v, cos_max);
+                    let w = (frame.0 * l.x + frame.1 * l.y + dir * l.z).normalize();
+                    (w, value / sampling::uniform_cone_pdf(cos_max))
+                };
+                let (o, inv_pdf) = beyond.annulus_ray(w, u);
+                Some(EmittedRay {
+                    o,
+                    d: -w,
+                    power: power_per_area * inv_pdf,
+                })
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let (cos_in, cos_out, axis) = beyond.zone(position)?;
+                let z = cos_in + (cos_out - cos_in) * u.x;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = 2.0 * PI * u.y;
+                let (t, b) = sampling::coordinate_system(axis);
+                let d = (t * (r * phi.cos()) + b * (r * phi.sin()) + axis * z).normalize();
+                Some(EmittedRay {
+                    o: position,
+                    d,
+                    power: intensity * (2.0 * PI * (cos_in - cos_out)),
+                })
+            }
+            Light::Spot { .. } => None,
         }
     }
 }
@@ -521,6 +658,27 @@ impl Environment {
             o,
             d: -w,
             power: le * (area / pdf),
+        })
+    }
+
+    /// The power the environment sends through the annulus of `beyond`
+    /// per direction (what [`Self::sample_le_beyond`] samples).
+    pub fn power_beyond(&self, beyond: Beyond) -> Rgb {
+        self.radiance_integral() * beyond.area()
+    }
+
+    /// Samples a photon arriving from the environment into `beyond`: a
+    /// direction by [`Self::sample`], then a point of the annulus.
+    pub fn sample_le_beyond(&self, beyond: Beyond, u: Vec2, v: Vec2) -> Option<EmittedRay> {
+        let (w, le, pdf) = self.sample(v)?;
+        if pdf <= 0.0 {
+            return None;
+        }
+        let (o, inv_pdf) = beyond.annulus_ray(w, u);
+        Some(EmittedRay {
+            o,
+            d: -w,
+            power: le * (inv_pdf / pdf),
         })
     }
 

@@ -133,6 +133,11 @@ impl Surface {
         }
     }
 
+    /// Whether the surface reflects light (has a BSDF).
+    pub fn reflects(&self) -> bool {
+        !matches!(self, Surface::Emission { .. })
+    }
+
     /// Whether the surface emits light anywhere.
     pub fn is_emissive(&self) -> bool {
         match self {

@@ -3,7 +3,12 @@
 //!
 //! Lights at infinity (suns, the environment) emit from a disk of the
 //! volumes' bounding sphere per direction, point and spot lights towards it
-//! ([`crate::light::Light::sample_le`]). Emissive media emit from their
+//! ([`crate::light::Light::sample_le`]). Where surfaces that reflect reach
+//! beyond that sphere, the same lights also emit past it, towards the
+//! surfaces ([`crate::light::Beyond`]): the light a ground bounces into
+//! the smoke from outside the smoke's shadow. Those photons take at most
+//! [`BEYOND_SHARE`] of the count (each carries its power divided by the
+//! probability of its source, so the split changes noise, not the mean). Emissive media emit from their
 //! majorant cells, split into boxes of about a voxel and chosen by emitted
 //! power (the emission at a few points of the box times its volume, never
 //! less than a small share of the cell's emission bound so that no box
@@ -18,7 +23,7 @@
 //! overlap once per volume).
 
 use crate::camera::Shutter;
-use crate::light::{BoundingSphere, EmittedRay};
+use crate::light::{Beyond, BoundingSphere, EmittedRay};
 use crate::medium::Media;
 use crate::sampling::{self, Distribution1D, Rng};
 use crate::world::World;
@@ -32,7 +37,16 @@ enum Source {
     Light(usize),
     Environment,
     Media,
+    /// A light's photons past the volumes, towards the surfaces.
+    LightBeyond(usize),
+    EnvironmentBeyond,
 }
+
+/// The largest share of the photons that go past the volumes to the
+/// surfaces around them. Most of them never reach a volume, and those that
+/// do are light the smoke receives second hand (a tenth of its brightness
+/// over a grey ground), so they get at most this, whatever their power.
+pub const BEYOND_SHARE: f32 = 0.25;
 
 /// A box of an emissive majorant cell, about a voxel.
 #[derive(Debug, Clone, Copy)]
@@ -62,6 +76,9 @@ pub struct Emission {
 #[derive(Debug, Clone)]
 pub struct Emitters {
     bounds: BoundingSphere,
+    /// The volumes' sphere and the one around them and the surfaces that
+    /// reflect, when the latter is larger.
+    beyond: Option<Beyond>,
     sources: Vec<Source>,
     pick: Distribution1D,
     boxes: Vec<EmissiveBox>,
@@ -115,9 +132,36 @@ impl Emitters {
         if sources.is_empty() {
             return None;
         }
-        let pick = Distribution1D::new(&power.iter().map(|p| avg(*p)).collect::<Vec<_>>());
+        let mut weights: Vec<f32> = power.iter().map(|p| avg(*p)).collect();
+        let beyond = beyond_volumes(world, lo, hi);
+        if let Some(b) = beyond {
+            let before = sources.len();
+            for (i, l) in world.lights.iter().enumerate() {
+                let p = l.power_beyond(b);
+                if avg(p) > 0.0 {
+                    sources.push(Source::LightBeyond(i));
+                    power.push(p);
+                }
+            }
+            if environment && !world.environment.is_black() {
+                let p = world.environment.power_beyond(b);
+                if avg(p) > 0.0 {
+                    sources.push(Source::EnvironmentBeyond);
+                    power.push(p);
+                }
+            }
+            // Their weights by power, scaled down to BEYOND_SHARE of the
+            // whole at most.
+            let inner: f32 = weights.iter().sum();
+            let outer: f32 = power[before..].iter().map(|p| avg(*p)).sum();
+            let most = inner * BEYOND_SHARE / (1.0 - BEYOND_SHARE);
+            let scale = if outer > most { most / outer } else { 1.0 };
+            weights.extend(power[before..].iter().map(|p| avg(*p) * scale));
+        }
+        let pick = Distribution1D::new(&weights);
         Some(Self {
             bounds,
+            beyond,
             sources,
             pick,
             boxes,
@@ -176,6 +220,16 @@ impl Emitters {
                 (light.sample_le(self.bounds, u, v)?, false, infinite)
             }
             Source::Environment => (world.environment.sample_le(self.bounds, u, v)?, false, true),
+            Source::LightBeyond(i) => {
+                let light = &world.lights[i];
+                let infinite = matches!(light, crate::light::Light::Sun { .. });
+                (light.sample_le_beyond(self.beyond?, u, v)?, false, infinite)
+            }
+            Source::EnvironmentBeyond => (
+                world.environment.sample_le_beyond(self.beyond?, u, v)?,
+                false,
+                true,
+            ),
             Source::Media => (
                 self.sample_media(&world.media, time, u, v, rng)?,
                 true,
@@ -223,6 +277,26 @@ impl Emitters {
             power: e * (4.0 * PI * c.volume_world / p_box),
         })
     }
+}
+
+/// The volumes' sphere and the sphere around them and every surface that
+/// reflects light, when the surfaces reach past the volumes' (by more than
+/// a hundredth of its radius); `None` otherwise.
+fn beyond_volumes(world: &World, lo: Vec3, hi: Vec3) -> Option<Beyond> {
+    let inner = BoundingSphere::of_box(lo, hi);
+    let (mut blo, mut bhi) = (lo, hi);
+    for (i, surface) in world.surfaces.iter().enumerate() {
+        if !surface.reflects() {
+            continue;
+        }
+        if let Some((a, b)) = world.shapes.object_bounds(i) {
+            blo = blo.min(a);
+            bhi = bhi.max(b);
+        }
+    }
+    let outer = BoundingSphere::of_box(blo, bhi);
+    let reaches = (outer.center - inner.center).length() + outer.radius;
+    (reaches.is_finite() && reaches > 1.01 * inner.radius).then_some(Beyond { inner, outer })
 }
 
 /// Boxes at most over every volume (about 40 bytes each, so 40 MB): a

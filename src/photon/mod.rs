@@ -246,7 +246,7 @@ fn trace_one(
     let media = &world.media;
     let mut power = e.ray.power / n as f32;
     // Russian roulette keeps the power near what the photon started with.
-    let threshold = power.max_element();
+    let mut threshold = power.max_element();
     if threshold.is_nan() || threshold <= 0.0 {
         return flight;
     }
@@ -334,20 +334,26 @@ fn trace_one(
                 };
                 let frame = crate::bsdf::Frame::from_normal(sh.n);
                 let wo = frame.to_local(-d);
-                let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
+                let toward = cone_toward(h.p, emitters.bounds());
+                let Some((wi, weight, glossy)) = reflect(&bsdf, &frame, wo, h.n, toward, rng)
+                else {
                     return flight;
                 };
-                let wi = frame.to_world(bs.wi);
-                if bs.pdf <= 0.0 || wi.dot(h.n) <= 0.0 {
-                    return flight;
+                power *= weight;
+                // The first reflection sets the level Russian roulette
+                // keeps: photons past the volumes start with powers that
+                // differ by their distance and leave the surface with
+                // about equal ones (see `reflect`); against their
+                // starting power, roulette would make them unequal again.
+                if bounces == 1 {
+                    threshold = threshold.min(power.max_element());
                 }
-                power *= bs.f.total() * (bs.wi.z.abs() / bs.pdf);
                 if !roulette(&mut power, threshold, rng) {
                     return flight;
                 }
                 o = h.spawn(wi);
                 d = wi;
-                kind = if bs.glossy {
+                kind = if glossy {
                     RayKind::GLOSSY
                 } else {
                     RayKind::DIFFUSE
@@ -356,4 +362,71 @@ fn trace_one(
             _ => return flight,
         }
     }
+}
+
+/// The cone of directions from `p` towards `sphere` (axis, cos of its half
+/// angle), when `p` is outside it.
+fn cone_toward(p: Vec3, sphere: crate::light::BoundingSphere) -> Option<(Vec3, f32)> {
+    let to = sphere.center - p;
+    let d2 = to.length_squared();
+    let r2 = sphere.radius * sphere.radius;
+    (d2 > r2).then(|| (to / d2.sqrt(), (1.0 - r2 / d2).max(0.0).sqrt()))
+}
+
+/// A photon's reflection off a surface: the direction it leaves in (world
+/// space), the weight f·|cos θi|/pdf its power takes, and whether a glossy
+/// lobe carries it. Outside the volumes' sphere, half the photons are sent
+/// into the cone towards it and half by the BSDF, weighted by the balance
+/// heuristic over both densities (one-sample MIS, Veach 1997, §9.2.4):
+/// what a ground reflects into the smoke is then carried by many photons
+/// of about equal power, instead of the few that the BSDF happens to send
+/// there, with a power that grows with the square of their distance
+/// ([`crate::light::Beyond`]). No direction is left out (the BSDF's
+/// half reaches everywhere else), so the estimate stays unbiased.
+fn reflect(
+    bsdf: &crate::bsdf::Bsdf,
+    frame: &crate::bsdf::Frame,
+    wo: Vec3,
+    ng: Vec3,
+    toward: Option<(Vec3, f32)>,
+    rng: &mut Rng,
+) -> Option<(Vec3, Rgb, bool)> {
+    let Some((axis, cos_max)) = toward else {
+        let bs = bsdf.sample(wo, rng.next_f32(), rng.next_vec2())?;
+        let wi = frame.to_world(bs.wi);
+        if bs.pdf <= 0.0 || wi.dot(ng) <= 0.0 {
+            return None;
+        }
+        return Some((wi, bs.f.total() * (bs.wi.z.abs() / bs.pdf), bs.glossy));
+    };
+    let pdf_cone = crate::sampling::uniform_cone_pdf(cos_max);
+    let in_cone = |w: Vec3| w.dot(axis) > cos_max;
+    let (uc, u) = (rng.next_f32(), rng.next_vec2());
+    let (wi, wi_local) = if uc < 0.5 {
+        let bs = bsdf.sample(wo, 2.0 * uc, u)?;
+        let wi = frame.to_world(bs.wi);
+        if bs.pdf <= 0.0 || wi.dot(ng) <= 0.0 {
+            return None;
+        }
+        if bs.singular {
+            // A mirror's direction: the cone never draws it.
+            return Some((wi, bs.f.total() * (bs.wi.z.abs() / (0.5 * bs.pdf)), true));
+        }
+        (wi, bs.wi)
+    } else {
+        let l = crate::sampling::sample_uniform_cone(u, cos_max);
+        let (t, b) = crate::sampling::coordinate_system(axis);
+        let wi = (t * l.x + b * l.y + axis * l.z).normalize();
+        (wi, frame.to_local(wi))
+    };
+    if wi_local.z <= 0.0 || wi.dot(ng) <= 0.0 {
+        return None;
+    }
+    let f = bsdf.f(wo, wi_local);
+    let pdf = 0.5 * bsdf.pdf(wo, wi_local) + if in_cone(wi) { 0.5 * pdf_cone } else { 0.0 };
+    if pdf <= 0.0 || !pdf.is_finite() {
+        return None;
+    }
+    let glossy = f.glossy.element_sum() > f.diffuse.element_sum();
+    Some((wi, f.total() * (wi_local.z / pdf), glossy))
 }

@@ -348,6 +348,8 @@ pub struct Shapes {
     of_kind: [Option<u8>; 6],
     /// Whether any object catches shadows.
     catcher: bool,
+    /// Each object's world-space bounds (none without triangles).
+    bounds: Vec<Option<(Vec3, Vec3)>>,
 }
 
 impl std::fmt::Debug for Shapes {
@@ -415,6 +417,18 @@ impl Shapes {
             of_kind[k] = Some(seen.len() as u8);
             seen.push(visible);
         }
+        let bounds = parts
+            .iter()
+            .map(|(_, g)| {
+                let mut used = g
+                    .triangles
+                    .iter()
+                    .flatten()
+                    .map(|&k| g.positions[k as usize]);
+                let first = used.next()?;
+                Some(used.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
+            })
+            .collect();
         let geometry = parts
             .into_iter()
             .map(|(_, g)| Geometry {
@@ -428,7 +442,13 @@ impl Shapes {
             sets,
             of_kind,
             catcher,
+            bounds,
         }
+    }
+
+    /// Object `i`'s world-space bounds (none without triangles).
+    pub fn object_bounds(&self, i: usize) -> Option<(Vec3, Vec3)> {
+        self.bounds[i]
     }
 
     /// The shading normal and texture coordinates at `hit`.
