@@ -574,14 +574,31 @@ fn load_surface(
 /// in the order of `Shapes::objects`).
 pub fn load_shapes(
     meshes: &[MeshDesc],
-    _warnings: &mut Vec<String>,
+    warnings: &mut Vec<String>,
 ) -> Result<(Shapes, Vec<Surface>)> {
+    use crate::scene::{ColorInput, SurfaceDesc};
     let mut parts = Vec::with_capacity(meshes.len());
     let mut surfaces = Vec::with_capacity(meshes.len());
     let mut cache = Vec::new();
     for (i, m) in meshes.iter().enumerate() {
         let context = |e: Error| e.context(format!("[[mesh]] {} {}", i + 1, m.label()));
-        parts.push(load_mesh(m).map_err(context)?);
+        let part = load_mesh(m).map_err(context)?;
+        let textured = match &m.material {
+            Some(SurfaceDesc::Principled(p)) => matches!(p.base_color, ColorInput::Texture { .. }),
+            Some(SurfaceDesc::Diffuse { color, .. } | SurfaceDesc::Emission { color, .. }) => {
+                matches!(color, ColorInput::Texture { .. })
+            }
+            None => false,
+        };
+        if textured && part.1.uvs.is_empty() && !part.1.triangles.is_empty() {
+            warnings.push(format!(
+                "[[mesh]] {} {}: its material has an image texture but '{}' has no UV map: the texture is read at (0, 0) everywhere",
+                i + 1,
+                m.label(),
+                m.file.display()
+            ));
+        }
+        parts.push(part);
         surfaces.push(load_surface(m, &mut cache).map_err(context)?);
     }
     Ok((Shapes::new(parts), surfaces))

@@ -356,6 +356,54 @@ fn a_bad_texture_is_refused_in_one_line() {
     }
 }
 
+/// A textured material on a mesh without a UV map renders (the texture
+/// read at (0, 0)) with one warning naming the mesh and its file.
+#[test]
+fn a_texture_on_a_mesh_without_uvs_is_a_warning() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let f = std::fs::File::create(d.join("tex.png")).unwrap();
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(f), 1, 1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header()
+        .unwrap()
+        .write_image_data(&[255, 255, 255])
+        .unwrap();
+    let scene = plane_scene(
+        d,
+        1.0,
+        Vec3::Z,
+        "name = \"Ground\"\n[mesh.material]\ntype = \"diffuse\"\ncolor_texture = { file = \"tex.png\" }\n",
+    );
+    let mut bare = plane(2.0, 0.0);
+    bare.uvs.clear();
+    write_ply(&d.join("plane.ply"), &bare);
+    std::fs::write(d.join("s.toml"), scene).unwrap();
+    let out = Command::new(BIN)
+        .current_dir(d)
+        .args([
+            "render",
+            "s.toml",
+            "-o",
+            "out.exr",
+            "--no-preview",
+            "--spp",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let warnings: Vec<&str> = err.lines().filter(|l| l.contains("no UV map")).collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(warnings[0].contains("'Ground'") && warnings[0].contains("plane.ply"));
+    // A white texture: the Lambertian plane at E/π · 1 = 1/π.
+    let img = read_exr(d.join("out.exr")).unwrap().0;
+    let m = img.mean_rgb();
+    assert!((m.x - 1.0 / std::f32::consts::PI).abs() < 1e-3, "{m}");
+}
+
 /// A white scattering cube above a wide white ground under a sun, seen
 /// from the side (the ground out of view): much of the light on the
 /// cube's underside is the ground's, reflected from everywhere under it,
