@@ -620,6 +620,7 @@ fn ours_cli(name: &str, real: Option<&Path>, integrator: &str, spp: u32) -> Imag
 #[test]
 fn surface_shots_against_cycles() {
     type Boxes = &'static [(&'static str, [usize; 4])];
+    type Shot = (&'static str, Boxes, [(&'static str, u32); 2], Option<f64>);
     let smoke: Boxes = &[
         ("SHADOW", [51, 89, 87, 99]),
         ("SMOKE", [110, 37, 150, 50]),
@@ -636,7 +637,7 @@ fn surface_shots_against_cycles() {
         ("Linear quad", [64, 0, 128, 64]),
     ];
     let real = common::real_data();
-    let mut shots: Vec<(&str, Boxes, [(&str, u32); 2], Option<f64>)> = vec![
+    let mut shots: Vec<Shot> = vec![
         (
             "surface_spheres",
             spheres,
