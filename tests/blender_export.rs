@@ -68,6 +68,12 @@
 //! images, node groups, material slots), the warnings for what cannot be
 //! represented, and the PLYs' normals and UVs against Blender's corners.
 //!
+//! `blender_exports_every_volume_scatter_phase`: the `phase` table of each
+//! Volume Scatter material of `tools/blender/test_export/phase_scene.py`'s
+//! scene (Henyey-Greenstein, Fournier-Forand, Draine, Rayleigh, Mie;
+//! values out of range, mixtures, a texture on a phase input), its
+//! warnings, and renders of the exported scene by both integrators.
+//!
 //! The Python with bpy: `$VDBPHOTON_BPY_PYTHON`, else
 //! `target/venv-bpy/bin/python`, else `/work/venv-bpy/bin/python`; with
 //! none, the tests are skipped with a note, or fail when `CI=true`.
@@ -1949,4 +1955,176 @@ fn blender_engine_renders_meshes_with_the_shadow_catcher_pass() {
             .any(|&b| f32::from_bits(b) < 0.99),
         "no shadow in the Shadow Catcher pass"
     );
+}
+
+/// The phase function of each Volume Scatter material
+/// (`tools/blender/test_export/phase_scene.py`): Blender 5's five phases
+/// with their sockets' values (one through a Value node), values outside
+/// the ranges vdbphoton accepts clamped with a warning each (a Principled
+/// Volume's Anisotropy too), a mixture of different phases taking the one
+/// that scatters most with one warning, two nodes of the same phase kept,
+/// two Henyey-Greenstein lobes an `hg_mix`, and a Diameter driven by a
+/// texture refused with the file's usual warning. The exported scene loads
+/// and renders with both integrators.
+#[test]
+fn blender_exports_every_volume_scatter_phase() {
+    let Some(py) = bpy_python() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let cloud = dir.join("cloud.vdb");
+    ok(
+        run(
+            Command::new(BIN)
+                .args(["generate", "cloud"])
+                .arg(&cloud)
+                .args(["--res", "24"]),
+            "vdbphoton generate cloud",
+        ),
+        "vdbphoton generate cloud",
+    );
+    let blend = dir.join("phases.blend");
+    ok(
+        run(
+            Command::new(&py)
+                .arg(repo().join("tools/blender/test_export/phase_scene.py"))
+                .arg(&blend)
+                .arg(&cloud),
+            "phase_scene.py",
+        ),
+        "phase_scene.py",
+    );
+    let toml_path = dir.join("phases.toml");
+    let out = ok(
+        export(&py, &blend, &toml_path, &[]),
+        "vdbphoton_export.py phases.blend",
+    );
+    let warnings = exporter_lines(&out.stderr, "warning");
+    for w in &warnings {
+        eprintln!("exporter warning: {w}");
+    }
+    let doc: toml::Value = toml::from_str(&std::fs::read_to_string(&toml_path).unwrap()).unwrap();
+    let layout: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("phases.json")).unwrap()).unwrap();
+    let vols = get(&doc, "volume").as_array().unwrap();
+    // Each object's [[volume]], found by its location.
+    let volume = |name: &str| -> Option<&toml::Value> {
+        let at = json_f64s(&layout[name]);
+        assert_eq!(at.len(), 3, "phases.json has no location for {name:?}");
+        vols.iter().find(|v| {
+            let m = matrix(v, "transform.matrix");
+            (0..3).all(|i| (m.w_axis[i] - at[i]).abs() < 1e-5)
+        })
+    };
+    let phase = |name: &str| -> Option<&toml::Value> {
+        volume(name)
+            .unwrap_or_else(|| panic!("{name:?} was not exported"))
+            .get("material")
+            .unwrap()
+            .get("phase")
+    };
+    let table = |s: &str| -> toml::Value {
+        toml::from_str::<toml::Table>(&format!("p = {s}")).unwrap()["p"].clone()
+    };
+    for (name, want) in [
+        ("HG", r#"{ type = "hg", g = 0.6 }"#),
+        (
+            "Fournier-Forand",
+            r#"{ type = "fournier_forand", backscatter = 0.2, ior = 1.15 }"#,
+        ),
+        ("Draine", r#"{ type = "draine", g = -0.3, alpha = 2.5 }"#),
+        ("Rayleigh", r#"{ type = "rayleigh" }"#),
+        ("Mie", r#"{ type = "mie", diameter = 8.5 }"#),
+        (
+            "Mie by a Value node",
+            r#"{ type = "mie", diameter = 12.5 }"#,
+        ),
+        (
+            "Clamped FF",
+            r#"{ type = "fournier_forand", backscatter = 0.5, ior = 2.0 }"#,
+        ),
+        (
+            "Clamped Draine",
+            r#"{ type = "draine", g = -1.0, alpha = 500.0 }"#,
+        ),
+        ("Clamped Mie", r#"{ type = "mie", diameter = 50.0 }"#),
+        ("Mixed", r#"{ type = "rayleigh" }"#),
+        ("Two Mie", r#"{ type = "mie", diameter = 20.0 }"#),
+        (
+            "HG mix",
+            r#"{ type = "hg_mix", lobes = [{ g = 0.8, weight = 0.75 }, { g = -0.3, weight = 0.25 }] }"#,
+        ),
+    ] {
+        assert_eq!(phase(name), Some(&table(want)), "{name}'s phase");
+    }
+    // A Principled Volume writes its own anisotropy, clamped to [-1, 1].
+    let principled = volume("Principled").expect("Principled was not exported");
+    assert!(principled["material"].get("phase").is_none());
+    assert_eq!(num(principled, "material.anisotropy"), 1.0);
+    // A texture on Diameter: the material is refused (as for any input).
+    assert!(volume("Noisy Mie").is_none(), "Noisy Mie was exported");
+    assert_eq!(vols.len(), 13, "every object but Noisy Mie");
+
+    let node = |object: &str| {
+        format!("volume object '{object}': material '{object} material' node 'Volume Scatter': ")
+    };
+    let outside = |object: &str, sock: &str, v: &str, range: &str, used: &str| {
+        format!(
+            "{}'{sock}' = {v} is outside {range}, the socket's range in Blender and the one \
+             vdbphoton accepts; {used} used",
+            node(object)
+        )
+    };
+    let expected = [
+        outside("Clamped FF", "Backscatter", "0.7", "[0, 0.5]", "0.5"),
+        outside("Clamped FF", "IOR", "2.5", "[1, 2]", "2"),
+        outside("Clamped Draine", "Anisotropy", "-1.4", "[-1, 1]", "-1"),
+        outside("Clamped Draine", "Alpha", "900", "[0, 500]", "500"),
+        outside("Clamped Mie", "Diameter", "80", "[0, 50]", "50"),
+        "volume object 'Mixed': material 'Mixed material' node 'Rayleigh scatter' (rayleigh) is \
+         added to Volume Scatter nodes of other phases ('Mie scatter' (mie diameter 20)), which \
+         vdbphoton cannot mix; its phase, the one that scatters most, is used for all"
+            .to_string(),
+        "volume object 'Noisy Mie': material 'Noisy Mie material' node 'Noise Texture' (Noise \
+         Texture) drives 'Diameter' of node 'Volume Scatter'; not supported"
+            .to_string(),
+        "volume object 'Principled': material 'Principled material' node 'Principled Volume': \
+         'Anisotropy' = 1.7 is outside [-1, 1], the socket's range in Blender and the one \
+         vdbphoton accepts; 1 used"
+            .to_string(),
+    ];
+    assert_eq!(
+        warnings, expected,
+        "the exporter's warnings, one per clamped value or mixture"
+    );
+
+    vdbphoton::scene::SceneDesc::load(&toml_path).unwrap();
+    for integrator in ["path", "photon"] {
+        let exr = dir.join(format!("{integrator}.exr"));
+        ok(
+            run(
+                Command::new(BIN)
+                    .arg("render")
+                    .arg(&toml_path)
+                    .args(["--spp", "2", "--width", "80", "--height", "48"])
+                    .args(["--integrator", integrator, "--no-preview"])
+                    .arg("-o")
+                    .arg(&exr),
+                &format!("vdbphoton render phases.toml ({integrator})"),
+            ),
+            &format!("vdbphoton render phases.toml ({integrator})"),
+        );
+        let img = read_exr_rgb(&exr).unwrap();
+        assert_eq!((img.width, img.height), (80, 48));
+        assert!(
+            img.pixels.iter().all(|p| p.is_finite()),
+            "{integrator}: non-finite pixels"
+        );
+        let mean = mean3(&img.pixels);
+        assert!(
+            mean.iter().all(|&m| m > 0.0),
+            "{integrator}: image mean {mean:?}"
+        );
+    }
 }

@@ -39,7 +39,10 @@ CLI):
              (its cache <cache_directory>/data/fluid_data_####.vdb, placed
              as Blender renders it, with bounds = the domain box). The
              object's Principled Volume (or Volume Scatter + Absorption)
-             material becomes [volume.material], every key written. A
+             material becomes [volume.material], every key written; a
+             Volume Scatter node's Phase (Henyey-Greenstein, Fournier-Forand,
+             Draine, Rayleigh, Mie) its phase table, values outside
+             vdbphoton's ranges clamped with a warning. A
              Volume object with Space = Object (Blender's default) has its
              densities and emission scaled by 1 / |M (1,1,1)/sqrt 3|, as
              Cycles does. A domain's `temperature` attribute is made by
@@ -1061,6 +1064,8 @@ class Exporter:
                     grids['color_grid'] = r[0]
         absorb = ctx.colour(pv, 'Absorption Color', const_only=True)
         g = ctx.const(pv, 'Anisotropy')
+        if g is not None:
+            g = ctx.in_range(pv, 'Anisotropy', g, 0.0, -1.0, 1.0)
         ec = ctx.colour(pv, 'Emission Color', const_only=True)
         esrc = ctx.scalar(pv, 'Emission Strength')
         bi = ctx.const(pv, 'Blackbody Intensity')
@@ -1111,7 +1116,7 @@ class Exporter:
         attr = None
         sigma_s = [0.0, 0.0, 0.0]
         sigma_a = [0.0, 0.0, 0.0]
-        gs = []
+        scatter = []
         for n in leaves:
             src = ctx.scalar(n, 'Density')
             if src is None:
@@ -1131,14 +1136,10 @@ class Exporter:
             if c is None:
                 return None
             if n.bl_idname == 'ShaderNodeVolumeScatter':
-                phase = getattr(n, 'phase', 'HENYEY_GREENSTEIN')
-                if phase != 'HENYEY_GREENSTEIN':
-                    self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}': phase {phase} is not "
-                              "supported (Henyey-Greenstein with its Anisotropy used)")
-                g = ctx.const(n, 'Anisotropy')
-                if g is None:
+                phase = self.scatter_phase(ctx, n)
+                if phase is None:
                     return None
-                gs.append((g, k * max(c)))
+                scatter.append((phase, k * max(c), n))
                 sigma_s = [sigma_s[i] + k * c[i] for i in range(3)]
             else:
                 sigma_a = [sigma_a[i] + k * max(0.0, 1.0 - c[i]) for i in range(3)]
@@ -1148,14 +1149,66 @@ class Exporter:
         grid, f = r
         material = {'sigma_s': rounded([x * f for x in sigma_s]),
                     'sigma_a': rounded([x * f for x in sigma_a])}
-        gvals = sorted(set(g7(g) for g, _ in gs))
-        if len(gvals) == 1 and gvals[0] != 0.0:
-            material['phase'] = {'type': 'hg', 'g': gvals[0]}
-        elif len(gvals) > 1:
-            tot = sum(w for _, w in gs)
-            material['phase'] = {'type': 'hg_mix', 'lobes': [
-                {'g': g7(g), 'weight': g7(w / tot)} for g, w in gs if w > 0]}
+        phase = self.mixed_phase(ctx, scatter)
+        if phase is not None:
+            material['phase'] = phase
         return {'grids': {'density_grid': grid}, 'material': material}
+
+    def scatter_phase(self, ctx, n):
+        """A Volume Scatter node's phase function as a [volume.material]
+        phase table, from its `phase` (Blender 4.3 and later; HG before) and
+        the sockets that phase shows. None (warned) where a socket is driven
+        by something other than a constant."""
+        phase = getattr(n, 'phase', 'HENYEY_GREENSTEIN')
+        if phase not in SCATTER_PHASES:
+            self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}': phase {phase} is not "
+                      "supported; isotropic used")
+            return {'type': 'isotropic'}
+        kind, params = SCATTER_PHASES[phase]
+        table = {'type': kind}
+        for key, sock, default, lo, hi in params:
+            # Blender 5 finds no socket by a name the phase hides (KeyError),
+            # so only the phase's own sockets are read.
+            if n.inputs.get(sock) is None:
+                self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}': phase {phase} has no "
+                          f"'{sock}' input; Blender's default {default:g} used")
+                v = default
+            else:
+                v = ctx.const(n, sock)
+                if v is None:
+                    return None
+            table[key] = ctx.in_range(n, sock, v, default, lo, hi)
+        return table
+
+    def mixed_phase(self, ctx, scatter):
+        """The phase table of Volume Scatter nodes added together
+        ([(table, weight, node)], weight = Density x max(Color)), or None for
+        isotropic (the default). Henyey-Greenstein lobes of different g make
+        an hg_mix weighted as Cycles weighs its closures; one phase (or the
+        same table everywhere) is written as it is; other mixtures take the
+        phase of the node that scatters most, with one warning."""
+        live = [x for x in scatter if x[1] > 0] or scatter
+        if not live:
+            return None
+        if all(p['type'] == 'hg' for p, _, _ in live):
+            gvals = sorted(set(p['g'] for p, _, _ in live))
+            if len(gvals) == 1:
+                return {'type': 'hg', 'g': gvals[0]} if gvals[0] != 0.0 else None
+            tot = sum(w for _, w, _ in live)
+            return {'type': 'hg_mix', 'lobes': [
+                {'g': p['g'], 'weight': g7(w / tot if tot > 0 else 1.0 / len(live))}
+                for p, w, _ in live]}
+        top = max(live, key=lambda x: x[1])
+        if any(p != top[0] for p, _, _ in live):
+            others = ', '.join(f"'{n.name}' ({phase_label(p)})" for p, _, n in live
+                               if n is not top[2])
+            self.warn(f"{ctx.what}: {ctx.mname} node '{top[2].name}' ({phase_label(top[0])}) "
+                      f"is added to Volume Scatter nodes of other phases ({others}), which "
+                      "vdbphoton cannot mix; its phase, the one that scatters most, is used "
+                      "for all")
+        if top[0] == {'type': 'hg', 'g': 0.0}:
+            return None
+        return top[0]
 
     # -- everything
 
@@ -1797,6 +1850,28 @@ class Exporter:
         return name
 
 
+# Volume Scatter's phases (Blender 4.3 and later) -> [volume.material] phase
+# tables: the type and, per key, (key, the node's socket, Blender's default,
+# the range vdbphoton accepts, which is the socket's range in Blender's UI;
+# docs/scene.md). Cycles clamps further inside (|g| <= 0.999, Backscatter
+# <= 0.499, IOR >= 1.001) and so does vdbphoton, alike.
+SCATTER_PHASES = {
+    'HENYEY_GREENSTEIN': ('hg', (('g', 'Anisotropy', 0.0, -1.0, 1.0),)),
+    'FOURNIER_FORAND': ('fournier_forand', (('backscatter', 'Backscatter', 0.1, 0.0, 0.5),
+                                            ('ior', 'IOR', 1.33, 1.0, 2.0))),
+    'DRAINE': ('draine', (('g', 'Anisotropy', 0.0, -1.0, 1.0),
+                          ('alpha', 'Alpha', 0.5, 0.0, 500.0))),
+    'RAYLEIGH': ('rayleigh', ()),
+    'MIE': ('mie', (('diameter', 'Diameter', 20.0, 0.0, 50.0),)),
+}
+
+
+def phase_label(table):
+    """A phase table as a warning names it: `fournier_forand backscatter 0.1
+    ior 1.33`."""
+    return ' '.join([table['type']] + [f"{k} {v:g}" for k, v in table.items() if k != 'type'])
+
+
 class MaterialContext:
     """Reads constant inputs and simple attribute links of shader nodes,
     warning (naming object, material, node, input) about anything else."""
@@ -1818,6 +1893,22 @@ class MaterialContext:
             return float(src.outputs[0].default_value)
         self.bad(node, name, src)
         return None
+
+    def in_range(self, node, name, v, default, lo, hi):
+        """A constant of input `name` within [lo, hi], the range vdbphoton
+        accepts for it: clamped (NaN: Blender's default), with a warning."""
+        if not math.isfinite(v):
+            self.ex.warn(f"{self.what}: {self.mname} node '{node.name}': '{name}' is {v}; "
+                         f"Blender's default {default:g} used")
+            return g7(default)
+        x = g7(v)
+        if lo <= x <= hi:
+            return x
+        c = g7(min(max(x, lo), hi))
+        self.ex.warn(f"{self.what}: {self.mname} node '{node.name}': '{name}' = {x:g} is "
+                     f"outside [{lo:g}, {hi:g}], the socket's range in Blender and the one "
+                     f"vdbphoton accepts; {c:g} used")
+        return c
 
     def scalar(self, node, name):
         """(attribute or None, factor)."""
