@@ -32,6 +32,74 @@ pub struct SampleResult {
     /// Catcher pass (`crate::integrator::catcher`), weighted by the
     /// transmittance up to the catcher.
     pub catcher: Option<CatcherSample>,
+    /// The light of paths whose first scattering is on a surface, by the
+    /// lobe that scattered it (Blender's Diffuse and Glossy passes); the
+    /// fields above then hold none of it but the emission the camera sees.
+    pub surface: SurfaceAovs,
+}
+
+/// Blender's Diffuse Direct, Diffuse Indirect, Glossy Direct and Glossy
+/// Indirect passes, colour included (Cycles' pass times its Diffuse or
+/// Glossy Color pass). A path counts in them when its first scattering is
+/// on a surface: direct, the light that reaches that point from the lights,
+/// the world, emitting surfaces and glowing media (its light sample and
+/// what its BSDF-sampled ray finds before it scatters again); indirect,
+/// what comes after; diffuse or glossy by the lobe of the BSDF (its light
+/// sample split by lobe, the rest by the lobe its direction came from).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SurfaceAovs {
+    pub diffuse_direct: Rgb,
+    pub diffuse_indirect: Rgb,
+    pub glossy_direct: Rgb,
+    pub glossy_indirect: Rgb,
+}
+
+impl SurfaceAovs {
+    /// Their layer names, as Blender's passes.
+    pub const LAYERS: [&'static str; 4] = [
+        "diffuse_direct",
+        "diffuse_indirect",
+        "glossy_direct",
+        "glossy_indirect",
+    ];
+
+    fn get(&self) -> [Rgb; 4] {
+        [
+            self.diffuse_direct,
+            self.diffuse_indirect,
+            self.glossy_direct,
+            self.glossy_indirect,
+        ]
+    }
+
+    /// Each pass times `w`.
+    pub fn scaled(&self, w: f32) -> SurfaceAovs {
+        SurfaceAovs {
+            diffuse_direct: self.diffuse_direct * w,
+            diffuse_indirect: self.diffuse_indirect * w,
+            glossy_direct: self.glossy_direct * w,
+            glossy_indirect: self.glossy_indirect * w,
+        }
+    }
+
+    /// Adds `other`'s passes.
+    pub fn add(&mut self, other: &SurfaceAovs) {
+        self.diffuse_direct += other.diffuse_direct;
+        self.diffuse_indirect += other.diffuse_indirect;
+        self.glossy_direct += other.glossy_direct;
+        self.glossy_indirect += other.glossy_indirect;
+    }
+
+    /// Adds `l` to the pass of `glossy`'s lobe, direct or not.
+    #[inline]
+    pub fn add_to(&mut self, glossy: bool, direct: bool, l: Rgb) {
+        match (glossy, direct) {
+            (false, true) => self.diffuse_direct += l,
+            (false, false) => self.diffuse_indirect += l,
+            (true, true) => self.glossy_direct += l,
+            (true, false) => self.glossy_indirect += l,
+        }
+    }
 }
 
 /// The light a shadow catcher receives with everything in the scene
@@ -223,6 +291,8 @@ pub struct Film {
     half: Option<Vec<Rgb>>,
     /// Shadow-catcher sums, when the scene has a catcher.
     catcher: Option<Vec<CatcherSums>>,
+    /// Surface AOV sums, when AOVs are kept and the scene has surfaces.
+    surface: Option<Vec<SurfaceAovs>>,
     /// Samples per pixel so far.
     samples: Vec<u32>,
 }
@@ -234,6 +304,11 @@ impl Film {
     /// Bytes per pixel the shadow catcher's sums add
     /// ([`Self::with_catcher`]), and its layer in the image.
     pub const CATCHER_BYTES: usize = std::mem::size_of::<CatcherSums>() + 2 * 4 * 3;
+    /// Bytes per pixel the surface AOVs add ([`Self::with_surface_aovs`]),
+    /// and their 12 channels in the image (counted twice, as the memory
+    /// check counts the image's other layers: the image and its copy
+    /// written out).
+    pub const SURFACE_AOV_BYTES: usize = std::mem::size_of::<SurfaceAovs>() + 2 * 4 * 12;
 
     /// An empty film over `region` of a `width` x `height` image, with AOV
     /// sums when `aovs`.
@@ -249,7 +324,18 @@ impl Film {
             guides: None,
             half: None,
             catcher: None,
+            surface: None,
             samples: vec![0; n],
+        }
+    }
+
+    /// The film also keeps the surface AOVs ([`SurfaceAovs`]), written as
+    /// their layers; only with AOVs.
+    pub fn with_surface_aovs(self) -> Self {
+        let n = self.samples.len();
+        Self {
+            surface: self.aovs.is_some().then(|| vec![SurfaceAovs::default(); n]),
+            ..self
         }
     }
 
@@ -346,6 +432,9 @@ impl Film {
                 a[i].samples += 1;
             }
         }
+        if let (Some(a), true) = (&mut self.surface, finite) {
+            a[i].add(&s.surface);
+        }
         if let (Some(a), Some(c)) = (&mut self.catcher, s.catcher) {
             a[i].hits += 1;
             if c.shadowed.is_finite() && c.unshadowed.is_finite() {
@@ -376,6 +465,11 @@ impl Film {
             for (x, y) in a.iter_mut().zip(b) {
                 x.albedo += y.albedo;
                 x.samples += y.samples;
+            }
+        }
+        if let (Some(a), Some(b)) = (&mut self.surface, &other.surface) {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.add(y);
             }
         }
         if let (Some(a), Some(b)) = (&mut self.half, &other.half) {
@@ -466,6 +560,13 @@ impl Film {
                 b.extend_from_slice(&c.hits.to_le_bytes());
             })?;
         }
+        if let Some(a) = &self.surface {
+            put::<_, 48>(w, a, |c, b| {
+                for x in c.get() {
+                    f32s(b, x);
+                }
+            })?;
+        }
         Ok(())
     }
 
@@ -523,6 +624,14 @@ impl Film {
                 shadowed: rgb_at(s, 0),
                 unshadowed: rgb_at(s, 3),
                 hits: u32::from_le_bytes(s[24..28].try_into().unwrap()),
+            })?;
+        }
+        if let Some(a) = &mut self.surface {
+            get::<_, 48>(r, a, |s| SurfaceAovs {
+                diffuse_direct: rgb_at(s, 0),
+                diffuse_indirect: rgb_at(s, 3),
+                glossy_direct: rgb_at(s, 6),
+                glossy_indirect: rgb_at(s, 9),
             })?;
         }
         Ok(())
@@ -612,6 +721,14 @@ impl Film {
             let layer = image.add_layer("transmittance", &["Y"])?;
             for (i, t) in tr.iter().enumerate() {
                 layer.set(i % w, i / w, &[*t]);
+            }
+            if let Some(sa) = &self.surface {
+                for (k, name) in SurfaceAovs::LAYERS.iter().enumerate() {
+                    let layer = image.add_rgb_layer(name)?;
+                    for (i, s) in sa.iter().enumerate() {
+                        layer.set(i % w, i / w, &(s.get()[k] * inv[i]).to_array());
+                    }
+                }
             }
         }
         if let Some(a) = &self.guides {

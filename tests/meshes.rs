@@ -613,7 +613,7 @@ fn bad_meshes_are_refused_in_one_line() {
     assert_refused(d, &[], &["short.ply", "truncated"]);
 }
 
-/// Tiles of a frame with meshes (a catcher and a holdout) merge into the
+/// Tiles of a frame with meshes (a catcher and a shaded ball) merge into the
 /// full render's bits, shadow catcher layer included.
 #[test]
 fn tiles_with_meshes_merge_into_the_full_frame() {
@@ -638,14 +638,22 @@ fn tiles_with_meshes_merge_into_the_full_frame() {
         0.5,
         0.5,
         Vec3::new(0.2, 0.3, 1.0),
-        "[[mesh]]\nfile = \"ground.ply\"\nshadow_catcher = true\n[[mesh]]\nfile = \"ball.ply\"\nholdout = true\n[environment]\nradiance = 0.2\n",
+        "[[mesh]]\nfile = \"ground.ply\"\nshadow_catcher = true\n[[mesh]]\nfile = \"ball.ply\"\n[environment]\nradiance = 0.2\n",
     );
     std::fs::write(d.join("s.toml"), scene).unwrap();
     for integrator in ["path", "photon"] {
         let full = render(
             d,
             "s.toml",
-            &["--integrator", integrator, "--spp", "4", "-o", "full.exr"],
+            &[
+                "--integrator",
+                integrator,
+                "--spp",
+                "4",
+                "-o",
+                "full.exr",
+                "--aovs",
+            ],
         );
         for i in 0..4 {
             let t = format!("{i}/4");
@@ -662,6 +670,7 @@ fn tiles_with_meshes_merge_into_the_full_frame() {
                     &t,
                     "-o",
                     &o,
+                    "--aovs",
                 ],
             );
         }
@@ -679,11 +688,21 @@ fn tiles_with_meshes_merge_into_the_full_frame() {
         assert_eq!(r.code, 0, "{}", r.stderr);
         let merged = read_exr(d.join("merged.exr")).unwrap().0;
         assert_eq!(merged.pixels(), full.pixels(), "{integrator}");
-        assert_eq!(
-            merged.layer("shadow_catcher").unwrap().data(),
-            full.layer("shadow_catcher").unwrap().data(),
-            "{integrator}"
+        assert!(
+            full.layer("diffuse_direct")
+                .unwrap()
+                .data()
+                .iter()
+                .any(|&v| v > 0.0),
+            "{integrator}: the ball's Diffuse Direct is empty"
         );
+        for layer in ["shadow_catcher", "diffuse_direct", "diffuse_indirect"] {
+            assert_eq!(
+                merged.layer(layer).unwrap().data(),
+                full.layer(layer).unwrap().data(),
+                "{integrator}: {layer}"
+            );
+        }
     }
 }
 
@@ -805,6 +824,7 @@ fn a_killed_render_with_meshes_resumes_to_the_same_bits() {
                 "--no-preview",
                 "--threads",
                 "2",
+                "--aovs",
             ]
             .iter()
             .map(|s| s.to_string())
@@ -813,7 +833,15 @@ fn a_killed_render_with_meshes_resumes_to_the_same_bits() {
         let whole = render(
             d,
             "s.toml",
-            &["--integrator", integrator, "--spp", "64", "-o", "whole.exr"],
+            &[
+                "--integrator",
+                integrator,
+                "--spp",
+                "64",
+                "-o",
+                "whole.exr",
+                "--aovs",
+            ],
         );
         let mut a = args("killed.exr");
         a.extend(["--checkpoint".into(), "0.05s".into()]);
@@ -839,11 +867,13 @@ fn a_killed_render_with_meshes_resumes_to_the_same_bits() {
         assert!(r.stderr.contains("resumed"), "{integrator}: {}", r.stderr);
         let resumed = read_exr(d.join("killed.exr")).unwrap().0;
         assert_eq!(resumed.pixels(), whole.pixels(), "{integrator}");
-        assert_eq!(
-            resumed.layer("shadow_catcher").unwrap().data(),
-            whole.layer("shadow_catcher").unwrap().data(),
-            "{integrator}"
-        );
+        for layer in ["shadow_catcher", "diffuse_direct", "glossy_indirect"] {
+            assert_eq!(
+                resumed.layer(layer).unwrap().data(),
+                whole.layer(layer).unwrap().data(),
+                "{integrator}: {layer}"
+            );
+        }
     }
 }
 

@@ -5,6 +5,7 @@
 //! integrator's marcher (single scattering, without MIS: it samples no
 //! direction).
 
+use crate::bsdf::BsdfValue;
 use crate::light::{Environment, Light};
 use crate::ray::Ray;
 use crate::sampling::{power_heuristic, Rng};
@@ -183,17 +184,37 @@ pub fn direct_light_surface(
     sources: Sources,
     rng: &mut Rng,
 ) -> Rgb {
+    direct_light_surface_by_lobe(world, hit, frame, bsdf, wo, time, sources, rng).total()
+}
+
+/// [`direct_light_surface`], split by the BSDF's lobes (diffuse and
+/// glossy), for Blender's Diffuse and Glossy passes.
+#[allow(clippy::too_many_arguments)]
+pub fn direct_light_surface_by_lobe(
+    world: &World,
+    hit: &crate::shape::Hit,
+    frame: &crate::bsdf::Frame,
+    bsdf: &crate::bsdf::Bsdf,
+    wo: Vec3,
+    time: f32,
+    sources: Sources,
+    rng: &mut Rng,
+) -> BsdfValue {
     let media = &world.media;
     let p = hit.spawn(hit.n);
-    let mut l = Rgb::ZERO;
+    let mut l = BsdfValue::ZERO;
     // The BSDF times |cos| for a world direction, and its pdf.
-    let eval = |wi: Vec3| -> Option<(Rgb, f32)> {
+    let eval = |wi: Vec3| -> Option<(BsdfValue, f32)> {
         if wi.dot(hit.n) <= 0.0 {
             return None;
         }
         let wl = frame.to_local(wi);
-        let f = bsdf.f(wo, wl).total() * wl.z.abs();
-        (f.max_element() > 0.0).then(|| (f, bsdf.pdf(wo, wl)))
+        let f = bsdf.f(wo, wl).scaled(wl.z.abs());
+        (f.total().max_element() > 0.0).then(|| (f, bsdf.pdf(wo, wl)))
+    };
+    let add = |l: &mut BsdfValue, f: BsdfValue, li: Rgb| {
+        l.diffuse += f.diffuse * li;
+        l.glossy += f.glossy * li;
     };
     for light in sources.lights_of(world) {
         let u = rng.next_vec2();
@@ -218,7 +239,7 @@ pub fn direct_light_surface(
         } else {
             power_heuristic(1, ls.pdf, 1, bsdf_pdf)
         };
-        l += ls.li * tr * f * (w / ls.pdf);
+        add(&mut l, f, ls.li * tr * (w / ls.pdf));
     }
     if sources.environment == EnvLight::Sampled && !world.environment.is_black() {
         if let Some((wi, le, pdf)) = world.environment.sample(rng.next_vec2()) {
@@ -232,7 +253,7 @@ pub fn direct_light_surface(
                             rng,
                         );
                         let w = power_heuristic(1, pdf, 1, bsdf_pdf);
-                        l += le * tr * f * (w / pdf);
+                        add(&mut l, f, le * tr * (w / pdf));
                     }
                 }
             }

@@ -23,7 +23,7 @@
 //! - Russian roulette after three scattering events once the throughput is
 //!   below [`RR_THRESHOLD`]; `max_bounces` real scattering events at most.
 
-use super::nee::{direct_light, direct_light_surface, EnvLight, Sources};
+use super::nee::{direct_light, direct_light_surface_by_lobe, EnvLight, Sources};
 use super::{catcher, Integrator, SampleKey, SampleResult};
 use crate::film::CatcherSample;
 use crate::light::Light;
@@ -225,7 +225,12 @@ pub fn trace_from(
     let mut last_phase_pdf = 0.0f32;
     // The kind of the next ray: the start's, then what scattered it.
     let mut kind = start.kind();
+    // When the path first scattered on a surface, the lobe that sent it on
+    // (glossy or not): its light then goes to Blender's Diffuse or Glossy
+    // passes instead of `direct`, `indirect` and `emission`.
+    let mut first_lobe: Option<bool> = None;
     loop {
+        let lobe = first_lobe;
         let mut scattered = false;
         let mut terminated = false;
         let mut new_dir = ray_d;
@@ -248,7 +253,10 @@ pub fn trace_from(
                 if m.emission.max_element() > 0.0 {
                     let e = beta * m.emission / c.sigma_maj;
                     res.l += e;
-                    res.emission += e;
+                    match lobe {
+                        Some(g) => res.surface.add_to(g, depth == 1, e),
+                        None => res.emission += e,
+                    }
                 }
             }
             beta *= step.weight;
@@ -268,10 +276,10 @@ pub fn trace_from(
                 Rgb::ZERO
             };
             res.l += ld;
-            if depth == 1 {
-                res.direct += ld;
-            } else {
-                res.indirect += ld;
+            match lobe {
+                Some(g) => res.surface.add_to(g, false, ld),
+                None if depth == 1 => res.direct += ld,
+                None => res.indirect += ld,
             }
             match phase.sample(wo, rng.next_vec2()) {
                 Some(ps) if ps.pdf > 0.0 => {
@@ -334,7 +342,10 @@ pub fn trace_from(
             if !env_only && sp.emission.max_element() > 0.0 {
                 let e = beta * sp.emission;
                 res.l += e;
-                res.emission += e;
+                match first_lobe {
+                    Some(g) => res.surface.add_to(g, depth == 1, e),
+                    None => res.emission += e,
+                }
             }
             let Some(bsdf) = sp.bsdf else {
                 break;
@@ -346,13 +357,17 @@ pub fn trace_from(
             let frame = Frame::from_normal(sh.n);
             let wo = frame.to_local(-ray_d);
             if sampled {
-                let ld = beta
-                    * direct_light_surface(world, &h, &frame, &bsdf, wo, time, sources, rng);
+                let by_lobe =
+                    direct_light_surface_by_lobe(world, &h, &frame, &bsdf, wo, time, sources, rng);
+                let ld = beta * by_lobe.total();
                 res.l += ld;
-                if depth == 1 {
-                    res.direct += ld;
-                } else {
-                    res.indirect += ld;
+                match first_lobe {
+                    Some(g) => res.surface.add_to(g, false, ld),
+                    None if depth == 1 => {
+                        res.surface.diffuse_direct += beta * by_lobe.diffuse;
+                        res.surface.glossy_direct += beta * by_lobe.glossy;
+                    }
+                    None => res.indirect += ld,
                 }
             }
             let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
@@ -364,6 +379,9 @@ pub fn trace_from(
                 break;
             }
             beta *= bs.f.total() * (bs.wi.z.abs() / bs.pdf);
+            if depth == 1 {
+                first_lobe = Some(bs.glossy);
+            }
             ray_o = h.spawn(wi);
             ray_d = wi;
             last_phase_pdf = if bs.singular { f32::INFINITY } else { bs.pdf };
@@ -391,10 +409,10 @@ pub fn trace_from(
             } else {
                 let e = beta * escaped(world, ray_d, last_phase_pdf, sources);
                 res.l += e;
-                if depth == 1 {
-                    res.direct += e;
-                } else {
-                    res.indirect += e;
+                match first_lobe {
+                    Some(g) => res.surface.add_to(g, depth == 1, e),
+                    None if depth == 1 => res.direct += e,
+                    None => res.indirect += e,
                 }
             }
             break;

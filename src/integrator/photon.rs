@@ -859,6 +859,7 @@ impl Integrator for PhotonIntegrator {
                 res.l += p.l * w;
                 res.direct += p.direct * w;
                 res.indirect += p.indirect * w;
+                res.surface.add(&p.surface.scaled(w));
             }
         }
         if let Some(h) = hit {
@@ -869,9 +870,22 @@ impl Integrator for PhotonIntegrator {
                 // Any other surface is shaded, and opaque.
                 res.transmittance = 0.0;
                 if tr.max_element() > 0.0 {
-                    let s = tr * self.surface_light(world, &h, ray.d, ray.time, 0, rng);
-                    res.l += s;
-                    res.indirect += s;
+                    let (emission, passes) = self.surface_light(world, &h, ray.d, ray.time, rng);
+                    let e = tr * emission;
+                    let (dd, di, gd, gi) = (
+                        tr * passes.diffuse_direct,
+                        tr * passes.diffuse_indirect,
+                        tr * passes.glossy_direct,
+                        tr * passes.glossy_indirect,
+                    );
+                    res.l += e + dd + di + gd + gi;
+                    res.emission += e;
+                    res.surface.add(&crate::film::SurfaceAovs {
+                        diffuse_direct: dd,
+                        diffuse_indirect: di,
+                        glossy_direct: gd,
+                        glossy_indirect: gi,
+                    });
                 }
             }
             if flags.shadow_catcher && !flags.holdout {
@@ -1146,26 +1160,29 @@ impl PhotonIntegrator {
         (res, hit, tr)
     }
 
-    /// The light leaving surface point `hit` towards `-d` (a ray of
-    /// direction `d` met it after `depth` surface bounces): its emission,
-    /// next-event estimation of the lights (and an environment map the
-    /// photons carry), and a BSDF-sampled gather ray, marched as a camera
-    /// ray is (single scattering, the photon map, emission) and shaded
-    /// again where it meets another surface (Russian roulette after
-    /// `RR_DEPTH` bounces, `max_bounces` at most). The world's light when
-    /// camera paths carry it (`sky_paths`) is theirs, not this.
+    /// The light leaving surface point `hit` towards `-d`, the camera's
+    /// ray: its emission (returned apart, the camera sees it), and by
+    /// Blender's Diffuse and Glossy passes next-event estimation of the
+    /// lights (and an environment map the photons carry) and a
+    /// BSDF-sampled gather ray, marched as a camera ray is (single
+    /// scattering, the photon map, emission) and shaded again where it
+    /// meets another surface (Russian roulette after `RR_DEPTH` bounces,
+    /// `max_bounces` at most). The world's light when camera paths carry it
+    /// (`sky_paths`) is theirs, not this.
     fn surface_light(
         &self,
         world: &World,
         hit: &Hit,
         d: Vec3,
         time: f32,
-        depth: u32,
         rng: &mut Rng,
-    ) -> Rgb {
-        let mut l = Rgb::ZERO;
+    ) -> (Rgb, crate::film::SurfaceAovs) {
+        let mut seen = Rgb::ZERO;
+        let mut passes = crate::film::SurfaceAovs::default();
         let mut beta = Rgb::ONE;
-        let (mut hit, mut d, mut depth) = (*hit, d, depth);
+        let (mut hit, mut d, mut depth) = (*hit, d, 0u32);
+        // The lobe the first reflection took.
+        let mut lobe = false;
         let sources = if self.sky_paths.is_some() {
             Sources::LIGHTS
         } else {
@@ -1174,29 +1191,42 @@ impl PhotonIntegrator {
         loop {
             let sh = world.shapes.shading(&hit);
             let sp = world.surfaces[hit.object as usize].at(sh.uv);
-            l += beta * sp.emission;
+            if depth == 0 {
+                seen += sp.emission;
+            } else {
+                passes.add_to(lobe, depth == 1, beta * sp.emission);
+            }
             let Some(bsdf) = sp.bsdf else {
-                return l;
+                return (seen, passes);
             };
             depth += 1;
             if depth > self.max_bounces {
-                return l;
+                return (seen, passes);
             }
             let frame = crate::bsdf::Frame::from_normal(sh.n);
             let wo = frame.to_local(-d);
-            l += beta * super::nee::direct_light_surface(
+            let ld = super::nee::direct_light_surface_by_lobe(
                 world, &hit, &frame, &bsdf, wo, time, sources, rng,
             );
+            if depth == 1 {
+                passes.diffuse_direct += ld.diffuse;
+                passes.glossy_direct += ld.glossy;
+            } else {
+                passes.add_to(lobe, false, beta * ld.total());
+            }
             let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
-                return l;
+                return (seen, passes);
             };
             let wi = frame.to_world(bs.wi);
             if bs.pdf <= 0.0 || wi.dot(hit.n) <= 0.0 {
-                return l;
+                return (seen, passes);
+            }
+            if depth == 1 {
+                lobe = bs.glossy;
             }
             beta *= bs.f.total() * (bs.wi.z.abs() / bs.pdf);
             if depth >= super::path::RR_DEPTH && !roulette(&mut beta, super::path::RR_THRESHOLD, rng) {
-                return l;
+                return (seen, passes);
             }
             let kind = if bs.glossy {
                 RayKind::GLOSSY
@@ -1209,14 +1239,19 @@ impl PhotonIntegrator {
                 steps.clear();
                 self.march(world, &gather, kind, rng, &mut steps)
             });
-            l += beta * r.l;
+            // What the gather ray finds straight (the media's emission, the
+            // world) is this point's direct light; what the media scatter
+            // to it, its indirect.
+            let scattered = r.direct + r.indirect;
+            passes.add_to(lobe, depth == 1, beta * (r.l - scattered));
+            passes.add_to(lobe, false, beta * scattered);
             match next {
                 Some(h) if tr.max_element() > 0.0 => {
                     beta *= tr;
                     hit = h;
                     d = wi;
                 }
-                _ => return l,
+                _ => return (seen, passes),
             }
         }
     }

@@ -93,6 +93,11 @@ fn check_memory(
         } else {
             0
         }
+        + if r.aovs && !desc.meshes.is_empty() {
+            pixels * Film::SURFACE_AOV_BYTES as u64
+        } else {
+            0
+        }
         + if r.denoise {
             pixels * Film::DENOISE_BYTES as u64
         } else {
@@ -763,6 +768,9 @@ pub fn render_scene(
         let mut film = Film::new(r.width, r.height, region, r.aovs);
         if world.shapes.has_catcher() {
             film = film.with_catcher();
+        }
+        if !world.shapes.is_empty() {
+            film = film.with_surface_aovs();
         }
         if r.denoise {
             film = film.with_guides();

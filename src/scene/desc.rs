@@ -149,7 +149,7 @@ pub struct RenderDesc {
     pub preview: Option<PathBuf>,
     /// Preview exposure in stops.
     pub exposure: f32,
-    /// Write AOV layers (direct, indirect, emission, transmittance).
+    /// Write AOV layers (direct, indirect, emission, transmittance; with meshes also diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect).
     pub aovs: bool,
     /// The frames rendered when the command line names none (`frames`,
     /// ascending, e.g. the frame range a Blender export wrote).

@@ -149,7 +149,7 @@ pub struct RenderArgs {
     /// filmic (Blender 3's).
     #[arg(long, value_parser = parse_view)]
     pub view: Option<View>,
-    /// Write AOV layers (direct, indirect, emission, transmittance).
+    /// Write AOV layers (direct, indirect, emission, transmittance; with meshes also diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect).
     #[arg(long)]
     pub aovs: bool,
     /// Denoise the image with Intel Open Image Denoise 2.x (the EXR keeps
