@@ -559,3 +559,97 @@ fn surface_passes_split_the_image_as_blender_names_them() {
     let layers: Vec<&str> = img.layers().iter().map(|l| l.name()).collect();
     assert_eq!(layers, ["direct", "emission", "indirect", "transmittance"]);
 }
+
+/// Fire lighting a ground: a small glowing, absorbing cube (σa 0.05,
+/// emission 10 per unit length, edge 0.25) over a Lambertian plane of
+/// albedo 0.5, nothing else. Far above (3 units), the plane under it
+/// receives the cube's radiant intensity ε·V·T over h² (a point source to
+/// 0.1 %), so its radiance is albedo/π of that: the closed form, within 2 %
+/// for the path tracer. Near (the cube 0.1 above the plane, σa 4), the path
+/// tracer with the media's emission sampled from the plane (MIS against
+/// the BSDF ray's collisions) agrees with the one without, within 4
+/// standard errors: fails when the weights of the two strategies do not
+/// add to one (emission counted twice, or lost). Far, the sampled emission
+/// has a lower variance. Measured: far 1.0028 of the closed form; near
+/// 0.31892 ± 0.00048 with, 0.31950 ± 0.00080 without (the light sample's
+/// weight set to 1 instead: 0.43325); variance per sample far 1.1e-6
+/// against 3.4e-3, near 0.059 against 0.164.
+#[test]
+fn fire_lights_the_ground_through_sampled_emission() {
+    use vdbphoton::integrator::path::PathIntegrator;
+    use vdbphoton::render::passes::camera_sample;
+    let dir = common::tempdir();
+    let d = dir.path();
+    write_ply(&d.join("plane.ply"), &plane(6.0, 0.0));
+    let cube = |z: f64| {
+        let g = common::const_box(
+            "density",
+            1.0,
+            DVec3::new(-0.125, -0.125, z),
+            1.0 / 32.0,
+            IVec3::ONE,
+        );
+        write_vdb(d.join(format!("cube{z}.vdb")), &[AnyGrid::Float(g)]).unwrap();
+    };
+    let scene = |z: f64, sigma_a: f64, name: &str| {
+        cube(z);
+        let s = format!(
+            "[render]\nwidth = 8\nheight = 8\nmax_bounces = 8\n[camera]\nposition = [0, 0, 0.05]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nvfov = 2\n[[volume]]\nfile = \"cube{z}.vdb\"\n[volume.material]\nsigma_a = {sigma_a}\nemission = 10\n[[mesh]]\nfile = \"plane.ply\"\n[mesh.material]\ntype = \"diffuse\"\ncolor = 0.5\n"
+        );
+        std::fs::write(d.join(name), s).unwrap();
+    };
+    // Far: the closed form.
+    scene(2.875, 0.05, "far.toml");
+    let (edge, h, eps, sigma_a) = (0.25f64, 3.0f64, 10.0f64, 0.05f64);
+    // ε·V·(mean transmittance out of the cube ≈ e^(−σa·edge/2)) / h².
+    let e = eps * edge.powi(3) * (-sigma_a * edge / 2.0).exp() / (h * h);
+    let want = 0.5 / std::f64::consts::PI * e;
+    // The photon integrator finds this light only through the plane's
+    // BSDF-sampled gather rays (the cube is 0.2 % of them): left out.
+    let img = render(d, "far.toml", &["--integrator", "path", "--spp", "256"]);
+    let got = img.mean_rgb().x as f64;
+    eprintln!("far, path: {got:.6} against {want:.6} ({:.4})", got / want);
+    assert!(
+        (got / want - 1.0).abs() < 0.02,
+        "path: {got} against {want}"
+    );
+    // Near: with and without the sampled emission, through the library.
+    // Optically thick (σa 4: the BSDF rays' collisions take much of the
+    // weight there).
+    scene(0.1, 4.0, "near.toml");
+    for (name, spp) in [("near.toml", 4000u64), ("far.toml", 4000)] {
+        let desc = vdbphoton::scene::SceneDesc::load(d.join(name)).unwrap();
+        let world = vdbphoton::world::World::load(&desc).unwrap();
+        let stats = |integrator: &PathIntegrator| {
+            let (mut s, mut s2, mut n) = (0f64, 0f64, 0f64);
+            for y in 0..8 {
+                for x in 0..8 {
+                    for i in 0..spp {
+                        let v = camera_sample(&world, integrator, 1, x, y, i).l.x as f64;
+                        s += v;
+                        s2 += v * v;
+                        n += 1.0;
+                    }
+                }
+            }
+            let m = s / n;
+            (m, ((s2 / n - m * m) / n).sqrt(), s2 / n - m * m)
+        };
+        let (with, se_with, var_with) = stats(&PathIntegrator::for_world(8, &world));
+        let (without, se_without, var_without) = stats(&PathIntegrator::new(8));
+        eprintln!(
+            "{name}: with {with:.6} ± {se_with:.6} (variance {var_with:.3e}), without {without:.6} ± {se_without:.6} (variance {var_without:.3e})"
+        );
+        let se = (se_with * se_with + se_without * se_without).sqrt();
+        assert!(
+            (with - without).abs() < 4.0 * se,
+            "{name}: {with} against {without} ± {se}"
+        );
+        if name == "far.toml" {
+            assert!(
+                var_with < 0.5 * var_without,
+                "far: no gain: {var_with} against {var_without}"
+            );
+        }
+    }
+}

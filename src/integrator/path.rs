@@ -22,6 +22,11 @@
 //!   that rays can hit (the environment and finite suns).
 //! - Russian roulette after three scattering events once the throughput is
 //!   below [`RR_THRESHOLD`]; `max_bounces` real scattering events at most.
+//! - At surfaces, next-event estimation of the lights (MIS against the
+//!   BSDF) and, in scenes with glowing media and meshes, of the media's
+//!   emission ([`MediaLight`]: the fire lighting the ground), weighted by
+//!   the balance heuristic against the emission the BSDF-sampled ray's
+//!   collisions find (see `emission_weight`).
 
 use super::nee::{direct_light, direct_light_surface_by_lobe, EnvLight, Sources};
 use super::{catcher, Integrator, SampleKey, SampleResult};
@@ -32,6 +37,7 @@ use crate::sampling::{power_heuristic, roulette, Rng};
 use crate::shape::RayKind;
 use crate::bsdf::Frame;
 use crate::tracking::{self, sample_t_maj, Collision};
+use crate::photon::emitter::MediaLight;
 use crate::world::World;
 use crate::Rgb;
 use glam::Vec3;
@@ -42,11 +48,29 @@ use glam::Vec3;
 pub struct PathIntegrator {
     /// Real scattering events at most along a path.
     pub max_bounces: u32,
+    /// The media's emission as a light for surfaces, in scenes with
+    /// meshes and glowing media.
+    media_light: Option<MediaLight>,
 }
 
 impl PathIntegrator {
     pub fn new(max_bounces: u32) -> Self {
-        Self { max_bounces }
+        Self {
+            max_bounces,
+            media_light: None,
+        }
+    }
+
+    /// The path tracer for `world`: with next-event estimation of the
+    /// media's emission at surfaces when it has meshes and glowing media.
+    pub fn for_world(max_bounces: u32, world: &World) -> Self {
+        let media_light = (!world.shapes.is_empty() && world.media.is_emissive())
+            .then(|| MediaLight::new(&world.media, world.camera.shutter()))
+            .flatten();
+        Self {
+            max_bounces,
+            media_light,
+        }
     }
 }
 
@@ -58,7 +82,15 @@ impl Integrator for PathIntegrator {
     fn li(&self, world: &World, ray: &Ray, rng: &mut Rng, _key: SampleKey) -> SampleResult {
         // Alpha, the camera ray's ratio-tracked transmittance, comes from
         // `trace`, which walks it on its first flight's collisions.
-        trace(world, self.max_bounces, ray, rng)
+        trace_from(
+            world,
+            self.max_bounces,
+            ray,
+            rng,
+            Sources::of(world),
+            Start::Camera,
+            self.media_light.as_ref(),
+        )
     }
 
     fn attributes(&self) -> Vec<(String, String)> {
@@ -73,7 +105,12 @@ pub const REGISTRATION: super::Registration = super::Registration {
     about: "the reference volumetric path tracer (unbiased; thin media, emission, sky light)",
     keys: &[],
     check: |_| Ok(()),
-    build: |desc, _| Ok(Box::new(PathIntegrator::new(desc.render.max_bounces))),
+    build: |desc, world| {
+        Ok(Box::new(PathIntegrator::for_world(
+            desc.render.max_bounces,
+            world,
+        )))
+    },
     peak_bytes: |_| 0,
     header_keys: &[],
 };
@@ -168,7 +205,7 @@ impl Start {
 /// from 1.9e-4 to 2.2e-5 on the dense cloud under it, and from 7.0e-5 to
 /// 4.8e-5 on the cloud under a sun and a sky.
 pub fn trace(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> SampleResult {
-    trace_from(world, max_bounces, ray, rng, Sources::of(world), Start::Camera)
+    trace_from(world, max_bounces, ray, rng, Sources::of(world), Start::Camera, None)
 }
 
 /// The light a ray leaving a shadow catcher towards `ray.d` receives (a
@@ -182,6 +219,7 @@ pub fn bounce(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> Rgb 
         rng,
         Sources::of(world),
         Start::Diffuse,
+        None,
     )
     .l
 }
@@ -204,7 +242,11 @@ pub fn trace_from(
     rng: &mut Rng,
     sources: Sources,
     start: Start,
+    media_light: Option<&MediaLight>,
 ) -> SampleResult {
+    // The media's emission is sampled from surfaces when the path takes
+    // the lights.
+    let media_light = media_light.filter(|_| sources.lights);
     let media = &world.media;
     let env_only = !sources.lights;
     // Light samples at scattering events: none when nothing is sampled.
@@ -229,8 +271,12 @@ pub fn trace_from(
     // (glossy or not): its light then goes to Blender's Diffuse or Glossy
     // passes instead of `direct`, `indirect` and `emission`.
     let mut first_lobe: Option<bool> = None;
+    // Where the current flight left a surface, with the BSDF's density of
+    // its direction, when the media's emission is also sampled from there.
+    let mut from_surface: Option<(Vec3, f32)> = None;
     loop {
         let lobe = first_lobe;
+        let leaving = from_surface;
         let mut scattered = false;
         let mut terminated = false;
         let mut new_dir = ray_d;
@@ -251,7 +297,16 @@ pub fn trace_from(
                 .filter(|_| !env_only && (depth > 0 || !camera_emission))
             {
                 if m.emission.max_element() > 0.0 {
-                    let e = beta * m.emission / c.sigma_maj;
+                    let w = match (leaving, media_light) {
+                        (Some((o, pdf)), Some(ml)) => emission_weight(
+                            pdf,
+                            (c.p - o).length_squared(),
+                            avg(m.sigma_t()),
+                            ml.pdf(media, c.p),
+                        ),
+                        _ => 1.0,
+                    };
+                    let e = beta * m.emission * (w / c.sigma_maj);
                     res.l += e;
                     match lobe {
                         Some(g) => res.surface.add_to(g, depth == 1, e),
@@ -370,6 +425,19 @@ pub fn trace_from(
                     None => res.indirect += ld,
                 }
             }
+            if let Some(ml) = media_light {
+                let by_lobe = media_light_surface(world, ml, &h, &frame, &bsdf, wo, time, rng);
+                let ld = beta * by_lobe.total();
+                res.l += ld;
+                match first_lobe {
+                    Some(g) => res.surface.add_to(g, false, ld),
+                    None if depth == 1 => {
+                        res.surface.diffuse_direct += beta * by_lobe.diffuse;
+                        res.surface.glossy_direct += beta * by_lobe.glossy;
+                    }
+                    None => res.indirect += ld,
+                }
+            }
             let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
                 break;
             };
@@ -382,6 +450,9 @@ pub fn trace_from(
             if depth == 1 {
                 first_lobe = Some(bs.glossy);
             }
+            // A mirror's direction the light sample cannot draw: its
+            // emission is the ray's alone.
+            from_surface = (!bs.singular).then_some((h.p, bs.pdf));
             ray_o = h.spawn(wi);
             ray_d = wi;
             last_phase_pdf = if bs.singular { f32::INFINITY } else { bs.pdf };
@@ -421,6 +492,7 @@ pub fn trace_from(
         ray_d = new_dir;
         last_phase_pdf = new_pdf;
         kind = RayKind::VOLUME_SCATTER;
+        from_surface = None;
         // Russian roulette on the throughput itself: survivors go on with
         // β = RR_THRESHOLD, so weights stay bounded (a floor on the
         // termination probability would let them grow without bound).
@@ -432,4 +504,84 @@ pub fn trace_from(
         }
     }
     res
+}
+
+#[inline]
+fn avg(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+/// The balance-heuristic weight (Veach 1997) of the media's emission at a
+/// point found by the collisions of a BSDF-sampled ray, against
+/// [`MediaLight`]'s sampling of that point: the ray's density there is
+/// taken as the BSDF's density of the direction times the point's σt
+/// (where collisions fall) over the squared distance (to a density per
+/// unit volume, as the light's), and the light's as [`MediaLight::pdf`].
+/// Any weights that add to one for each point keep the sum unbiased: this
+/// one gives the emission near the surface to the ray (whose density grows
+/// as 1/t² there, where the light sample's estimate would) and the far,
+/// small fire to the light sample.
+#[inline]
+fn emission_weight(bsdf_pdf: f32, dist2: f32, sigma_t: f32, light_pdf: f32) -> f32 {
+    let ray = bsdf_pdf * sigma_t / dist2.max(1e-12);
+    if ray.is_nan() || ray <= 0.0 {
+        return 0.0;
+    }
+    if !ray.is_finite() {
+        return 1.0;
+    }
+    ray / (ray + light_pdf)
+}
+
+/// Next-event estimation of the media's emission from surface point `hit`
+/// (BSDF in `frame`, `wo` local): a point of the emission drawn by `light`,
+/// its emission times the BSDF, |cos θ|, the meshes' shadow and the media's
+/// transmittance, over its density per solid angle, weighted against the
+/// BSDF-sampled ray by [`emission_weight`]. Split by lobe.
+#[allow(clippy::too_many_arguments)]
+fn media_light_surface(
+    world: &World,
+    light: &MediaLight,
+    hit: &crate::shape::Hit,
+    frame: &Frame,
+    bsdf: &crate::bsdf::Bsdf,
+    wo: Vec3,
+    time: f32,
+    rng: &mut Rng,
+) -> crate::bsdf::BsdfValue {
+    let none = crate::bsdf::BsdfValue::ZERO;
+    let media = &world.media;
+    let Some(s) = light.sample(media, time, rng) else {
+        return none;
+    };
+    let to = s.p - hit.p;
+    let dist2 = to.length_squared();
+    if dist2.is_nan() || dist2 <= 0.0 {
+        return none;
+    }
+    let dist = dist2.sqrt();
+    let wi = to / dist;
+    if wi.dot(hit.n) <= 0.0 {
+        return none;
+    }
+    let wl = frame.to_local(wi);
+    let f = bsdf.f(wo, wl).scaled(wl.z.abs());
+    if f.total().max_element() <= 0.0 {
+        return none;
+    }
+    let o = hit.spawn(hit.n);
+    let d = (s.p - o).length();
+    if world.shapes.occluded(o, wi, d, RayKind::SHADOW) {
+        return none;
+    }
+    let tr = tracking::transmittance(media, &Ray::at_time(o, wi, time), d, rng);
+    if tr.max_element() <= 0.0 {
+        return none;
+    }
+    let w = 1.0 - emission_weight(bsdf.pdf(wo, wl), dist2, s.sigma_t, s.pdf);
+    let li = s.emission * tr * (w / (s.pdf * dist2));
+    crate::bsdf::BsdfValue {
+        diffuse: f.diffuse * li,
+        glossy: f.glossy * li,
+    }
 }

@@ -854,6 +854,7 @@ impl Integrator for PhotonIntegrator {
                     rng,
                     sources,
                     super::path::Start::Camera,
+                    None,
                 );
                 let w = 1.0 / share;
                 res.l += p.l * w;

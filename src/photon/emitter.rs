@@ -120,7 +120,7 @@ impl Emitters {
                 power.push(p);
             }
         }
-        let (boxes, weights) = emissive_boxes(&world.media, world.camera.shutter());
+        let (boxes, weights, _) = emissive_boxes(&world.media, world.camera.shutter());
         let pick_box = if weights.iter().any(|&w| w > 0.0) {
             let total: f32 = weights.iter().sum();
             sources.push(Source::Media);
@@ -340,7 +340,14 @@ const COARSE_FLOOR: f32 = 0.05;
 /// spread over the shutter: a moving volume's cells and their bounds are
 /// dilated by its motion, so around the emitting cells lies a shell that
 /// may emit at some time.
-fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>, Vec<f32>) {
+/// Each emissive cell in the order its boxes come: (volume, cell, boxes
+/// per edge).
+type BoxLayout = Vec<(usize, IVec3, usize)>;
+
+fn emissive_boxes(
+    media: &Media,
+    shutter: Option<Shutter>,
+) -> (Vec<EmissiveBox>, Vec<f32>, BoxLayout) {
     let times: Vec<f32> = match shutter {
         Some(s) => (0..4).map(|i| s.time((i as f32 + 0.5) / 4.0)).collect(),
         None => vec![0.0],
@@ -366,11 +373,19 @@ fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>,
         }
     }
     if emissive.is_empty() {
-        return (Vec::new(), Vec::new());
+        return (Vec::new(), Vec::new(), Vec::new());
     }
     let budget = (MAX_BOXES / emissive.len()).max(1);
     let most = (budget as f32).cbrt().floor().max(1.0) as usize;
-    emissive
+    // Each cell's boxes per edge, in the order the boxes come.
+    let layout = emissive
+        .iter()
+        .map(|&(vi, c, _)| {
+            let size = media.volumes()[vi].majorant_grid().cell_box(c).1;
+            (vi, c, (size.round().max(1.0) as usize).min(most))
+        })
+        .collect();
+    let (boxes, weights) = emissive
         .par_iter()
         .flat_map_iter(|&(vi, c, bound)| {
             let v = &media.volumes()[vi];
@@ -415,5 +430,126 @@ fn emissive_boxes(media: &Media, shutter: Option<Shutter>) -> (Vec<EmissiveBox>,
                 (b, mean.max(floor * bound) * volume_world)
             })
         })
-        .unzip()
+        .unzip();
+    (boxes, weights, layout)
+}
+
+/// The media's emission as a light to sample from a point (next-event
+/// estimation from a surface: the fire lighting the ground), over the
+/// boxes the photons of the media come from ([`emissive_boxes`]): a box by
+/// its weight, a uniform point in it. [`Self::pdf`] gives the density of
+/// any point, for multiple importance sampling against the rays that find
+/// the emission by flying through it.
+#[derive(Debug, Clone)]
+pub struct MediaLight {
+    boxes: Vec<EmissiveBox>,
+    /// Each box's probability.
+    prob: Vec<f32>,
+    pick: Distribution1D,
+    /// Per volume: the first box of each emissive majorant cell (by the
+    /// cell's linear index) and the boxes per cell edge.
+    cells: Vec<(std::collections::HashMap<u32, u32>, usize)>,
+}
+
+/// A point of the media's emission drawn by [`MediaLight::sample`].
+#[derive(Debug, Clone, Copy)]
+pub struct MediaLightSample {
+    pub p: Vec3,
+    /// The media's emission (radiance per unit length) at `p`.
+    pub emission: Rgb,
+    /// The media's σt at `p` (mean over channels).
+    pub sigma_t: f32,
+    /// The density of `p` (per unit volume) over every volume's boxes.
+    pub pdf: f32,
+}
+
+impl MediaLight {
+    /// The emissive media of `media` (`None` when nothing emits).
+    pub fn new(media: &Media, shutter: Option<Shutter>) -> Option<Self> {
+        let (boxes, weights, layout) = emissive_boxes(media, shutter);
+        let total: f32 = weights.iter().sum();
+        if boxes.is_empty() || total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        let prob = weights.iter().map(|w| w / total).collect();
+        let mut cells: Vec<(std::collections::HashMap<u32, u32>, usize)> = media
+            .volumes()
+            .iter()
+            .map(|_| (std::collections::HashMap::new(), 1))
+            .collect();
+        let mut first = 0u32;
+        for (vi, c, n) in layout {
+            let res = media.volumes()[vi].majorant_grid().resolution();
+            let linear = ((c.z * res.y + c.y) * res.x + c.x) as u32;
+            cells[vi].0.insert(linear, first);
+            cells[vi].1 = n;
+            first += (n * n * n) as u32;
+        }
+        debug_assert_eq!(first as usize, boxes.len());
+        Some(Self {
+            boxes,
+            prob,
+            pick: Distribution1D::new(&weights),
+            cells,
+        })
+    }
+
+    /// A point of the media's emission at `time`, or `None` where the box
+    /// drawn does not emit there.
+    pub fn sample(&self, media: &Media, time: f32, rng: &mut Rng) -> Option<MediaLightSample> {
+        let (_, _, i) = self.pick.sample_continuous(rng.next_f32());
+        let c = self.boxes[i];
+        let vol = &media.volumes()[c.volume];
+        let u = rng.next_vec2();
+        let pi = c.lo + Vec3::new(u.x, u.y, rng.next_f32()) * c.size;
+        let p = vol.world_from_index().transform_point3(pi);
+        // Every volume's emission at p over the density of p through
+        // every volume's boxes (a mixture): where volumes overlap, each
+        // one's boxes cover its own emission, and together they cover all.
+        let m = media.eval(p, time);
+        if m.emission.max_element() <= 0.0 {
+            return None;
+        }
+        let pdf = self.pdf(media, p);
+        (pdf > 0.0).then_some(MediaLightSample {
+            p,
+            emission: m.emission,
+            sigma_t: avg(m.sigma_t()),
+            pdf,
+        })
+    }
+
+    /// The density with which [`Self::sample`] draws world point `p` (per
+    /// unit volume), summed over the volumes whose boxes hold it.
+    pub fn pdf(&self, media: &Media, p: Vec3) -> f32 {
+        let mut pdf = 0.0;
+        for (vi, (cells, n)) in self.cells.iter().enumerate() {
+            if cells.is_empty() {
+                continue;
+            }
+            let vol = &media.volumes()[vi];
+            let g = vol.majorant_grid();
+            let pi = vol.index_from_world().transform_point3(p);
+            let (origin, edge) = g.cell_box(IVec3::ZERO);
+            let c = ((pi - origin) / edge).floor().as_ivec3();
+            let res = g.resolution();
+            if c.cmplt(IVec3::ZERO).any() || c.cmpge(res).any() {
+                continue;
+            }
+            let linear = ((c.z * res.y + c.y) * res.x + c.x) as u32;
+            let Some(&first) = cells.get(&linear) else {
+                continue;
+            };
+            let lo = origin + (c * g.cell()).as_vec3();
+            let sub = edge / *n as f32;
+            let k = ((pi - lo) / sub)
+                .floor()
+                .as_ivec3()
+                .clamp(IVec3::ZERO, IVec3::splat(*n as i32 - 1));
+            let b = first as usize + ((k.z as usize * n + k.y as usize) * n + k.x as usize);
+            let bx = &self.boxes[b];
+            pdf += self.prob[b] / bx.volume_world;
+        }
+        pdf
+    }
 }
