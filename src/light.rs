@@ -332,13 +332,7 @@ impl Light {
                 cos_max,
                 frame,
             } => {
-                let (w, power_per_area) = if cos_max >= 1.0 {
-                    (dir, value)
-                } else {
-                    let l = sampling::sample_uniform_cone(v, cos_max);
-                    let w = (frame.0 * l.x + frame.1 * l.y + dir * l.z).normalize();
-                    (w, value / sampling::uniform_cone_pdf(cos_max))
-                };
+                let (w, power_per_area) = sun_direction(dir, value, cos_max, frame, v);
                 let (o, area) = bounds.disk_ray(w, u);
                 Some(EmittedRay {
                     o,
@@ -427,13 +421,7 @@ impl Light {
                 cos_max,
                 frame,
             } => {
-                let (w, power_per_area) = if cos_max >= 1.0 {
-                    (dir, value)
-                } else {
-                    let l = sampling::sample_uniform_cone(v, cos_max);
-                    let w = (frame.0 * l.x + frame.1 * l.y + dir * l.z).normalize();
-                    (w, value / sampling::uniform_cone_pdf(cos_max))
-                };
+                let (w, power_per_area) = sun_direction(dir, value, cos_max, frame, v);
                 let (o, inv_pdf) = beyond.annulus_ray(w, u);
                 Some(EmittedRay {
                     o,
@@ -459,6 +447,19 @@ impl Light {
             }
             Light::Spot { .. } => None,
         }
+    }
+}
+
+/// A sun photon's direction towards the light (uniform in the sun's cone
+/// from `v`, or its direction for a delta sun) and its power per unit area
+/// of the disk it crosses: the irradiance over the direction's density.
+fn sun_direction(dir: Vec3, value: Rgb, cos_max: f32, frame: (Vec3, Vec3), v: Vec2) -> (Vec3, Rgb) {
+    if cos_max >= 1.0 {
+        (dir, value)
+    } else {
+        let l = sampling::sample_uniform_cone(v, cos_max);
+        let w = (frame.0 * l.x + frame.1 * l.y + dir * l.z).normalize();
+        (w, value / sampling::uniform_cone_pdf(cos_max))
     }
 }
 

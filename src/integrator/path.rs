@@ -414,29 +414,11 @@ pub fn trace_from(
             if sampled {
                 let by_lobe =
                     direct_light_surface_by_lobe(world, &h, &frame, &bsdf, wo, time, sources, rng);
-                let ld = beta * by_lobe.total();
-                res.l += ld;
-                match first_lobe {
-                    Some(g) => res.surface.add_to(g, false, ld),
-                    None if depth == 1 => {
-                        res.surface.diffuse_direct += beta * by_lobe.diffuse;
-                        res.surface.glossy_direct += beta * by_lobe.glossy;
-                    }
-                    None => res.indirect += ld,
-                }
+                add_surface_light(&mut res, first_lobe, depth, beta, by_lobe);
             }
             if let Some(ml) = media_light.filter(|_| rng.next_f32() < MEDIA_LIGHT_SHARE) {
                 let by_lobe = media_light_surface(world, ml, &h, &frame, &bsdf, wo, time, rng);
-                let ld = beta * by_lobe.total();
-                res.l += ld;
-                match first_lobe {
-                    Some(g) => res.surface.add_to(g, false, ld),
-                    None if depth == 1 => {
-                        res.surface.diffuse_direct += beta * by_lobe.diffuse;
-                        res.surface.glossy_direct += beta * by_lobe.glossy;
-                    }
-                    None => res.indirect += ld,
-                }
+                add_surface_light(&mut res, first_lobe, depth, beta, by_lobe);
             }
             let Some(bs) = bsdf.sample(wo, rng.next_f32(), rng.next_vec2()) else {
                 break;
@@ -513,6 +495,30 @@ pub fn trace_from(
 /// sample; the share enters the MIS weights as a factor of the light's
 /// density, so the estimate stays unbiased.
 pub const MEDIA_LIGHT_SHARE: f32 = 0.25;
+
+/// Adds a surface point's light sample (split by lobe, before `beta`) to
+/// the image and its pass: the Diffuse or Glossy Direct pass at the path's
+/// first scattering (`depth` 1), later the pass of the first lobe, or
+/// `indirect` when the path first scattered in a volume.
+#[inline]
+fn add_surface_light(
+    res: &mut SampleResult,
+    first_lobe: Option<bool>,
+    depth: u32,
+    beta: Rgb,
+    by_lobe: crate::bsdf::BsdfValue,
+) {
+    let ld = beta * by_lobe.total();
+    res.l += ld;
+    match first_lobe {
+        Some(g) => res.surface.add_to(g, false, ld),
+        None if depth == 1 => {
+            res.surface.diffuse_direct += beta * by_lobe.diffuse;
+            res.surface.glossy_direct += beta * by_lobe.glossy;
+        }
+        None => res.indirect += ld,
+    }
+}
 
 #[inline]
 fn avg(c: Rgb) -> f32 {
