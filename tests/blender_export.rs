@@ -74,6 +74,16 @@
 //! values out of range, mixtures, a texture on a phase input), its
 //! warnings, and renders of the exported scene by both integrators.
 //!
+//! `blender_exports_every_volume_whatever_its_material`
+//! (`tools/blender/test_export/fallback_scene.py`): one unsupported node
+//! (a Color Ramp under a supported Math node) or shader (Emission) does not
+//! stop the scene: exactly one warning each, naming the unsupported node,
+//! and the rest renders; a Volume object without a material is Cycles'
+//! default Principled Volume; an Attribute node naming a grid the file
+//! lacks reads 0. Cycles renders the no-material and the missing-attribute
+//! objects alone, against vdbphoton's renders of their exports: image means
+//! within 3 %.
+//!
 //! The Python with bpy: `$VDBPHOTON_BPY_PYTHON`, else
 //! `target/venv-bpy/bin/python`, else `/work/venv-bpy/bin/python`; with
 //! none, the tests are skipped with a note, or fail when `CI=true`.
@@ -2062,9 +2072,14 @@ fn blender_exports_every_volume_scatter_phase() {
     let principled = volume("Principled").expect("Principled was not exported");
     assert!(principled["material"].get("phase").is_none());
     assert_eq!(num(principled, "material.anisotropy"), 1.0);
-    // A texture on Diameter: the material is refused (as for any input).
-    assert!(volume("Noisy Mie").is_none(), "Noisy Mie was exported");
-    assert_eq!(vols.len(), 13, "every object but Noisy Mie");
+    // A texture on Diameter: the link is left out, the socket's own value
+    // used (one warning below).
+    assert_eq!(
+        phase("Noisy Mie"),
+        Some(&table(r#"{ type = "mie", diameter = 20.0 }"#)),
+        "Noisy Mie's phase"
+    );
+    assert_eq!(vols.len(), 14, "every object");
 
     let node = |object: &str| {
         format!("volume object '{object}': material '{object} material' node 'Volume Scatter': ")
@@ -2087,7 +2102,8 @@ fn blender_exports_every_volume_scatter_phase() {
          vdbphoton cannot mix; its phase, the one that scatters most, is used for all"
             .to_string(),
         "volume object 'Noisy Mie': material 'Noisy Mie material' node 'Noise Texture' (Noise \
-         Texture) drives 'Diameter' of node 'Volume Scatter'; not supported"
+         Texture) drives 'Diameter' of node 'Volume Scatter'; not supported: the link is left \
+         out ('Diameter' = 20 of node 'Volume Scatter' used)"
             .to_string(),
         "volume object 'Principled': material 'Principled material' node 'Principled Volume': \
          'Anisotropy' = 1.7 is outside [-1, 1], the socket's range in Blender and the one \
@@ -2127,4 +2143,224 @@ fn blender_exports_every_volume_scatter_phase() {
             "{integrator}: image mean {mean:?}"
         );
     }
+}
+
+/// Volume materials that vdbphoton cannot take in full
+/// (`tools/blender/test_export/fallback_scene.py`): exactly one warning for
+/// each, the nearest material exported, the scene rendered; no material is
+/// Cycles' default Principled Volume; a missing attribute reads 0. Image
+/// means against Cycles (bpy 5.0.1) for the two Cycles semantics.
+#[test]
+fn blender_exports_every_volume_whatever_its_material() {
+    let Some(py) = bpy_python() else {
+        return;
+    };
+    let t0 = Instant::now();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let cloud = dir.join("cloud.vdb");
+    ok(
+        run(
+            Command::new(BIN)
+                .args(["generate", "cloud"])
+                .arg(&cloud)
+                .args(["--res", "24"]),
+            "vdbphoton generate cloud",
+        ),
+        "vdbphoton generate cloud",
+    );
+    ok(
+        run(
+            Command::new(&py)
+                .arg(repo().join("tools/blender/test_export/fallback_scene.py"))
+                .arg(dir)
+                .arg(&cloud),
+            "fallback_scene.py",
+        ),
+        "fallback_scene.py",
+    );
+    let toml_path = dir.join("fallback.toml");
+    let out = ok(
+        export(&py, &dir.join("fallback.blend"), &toml_path, &[]),
+        "vdbphoton_export.py fallback.blend",
+    );
+    let warnings = exporter_lines(&out.stderr, "warning");
+    for w in &warnings {
+        eprintln!("exporter warning: {w}");
+    }
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("Traceback"),
+        "a traceback"
+    );
+    let zero = "Cycles reads a missing attribute as 0";
+    let expected = [
+        "volume object 'Ramp': material 'Ramp material' node 'Color Ramp' (Color Ramp) drives \
+         'Value' of node 'Math'; not supported: the attribute 'density' it reads is used in its \
+         place"
+            .to_string(),
+        "volume object 'Emission': material 'Emission material' node 'Emission' (Emission) is \
+         not supported (a Principled Volume, or Volume Scatter and Volume Absorption nodes \
+         added or mixed, are); it is left out"
+            .to_string(),
+        format!(
+            "volume object 'Missing colour': material 'Missing colour material' node 'Colour \
+             attribute' reads attribute 'missing' (Color), but the file has no grid of that \
+             name (grids: density); {zero}; Color (0, 0, 0) exported"
+        ),
+        format!(
+            "volume object 'Missing density': material 'Missing density material' node 'Smoke \
+             attribute' reads attribute 'smoke' (Factor), but the file has no grid of that name \
+             (grids: density); {zero}; density 0 exported"
+        ),
+    ];
+    assert_eq!(
+        warnings, expected,
+        "exactly one warning per unsupported thing"
+    );
+
+    let doc: toml::Value = toml::from_str(&std::fs::read_to_string(&toml_path).unwrap()).unwrap();
+    let layout: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("fallback.json")).unwrap()).unwrap();
+    let vols = get(&doc, "volume").as_array().unwrap();
+    let volume = |name: &str| -> Option<&toml::Value> {
+        let at = json_f64s(&layout[name]);
+        vols.iter().find(|v| {
+            let m = matrix(v, "transform.matrix");
+            (0..3).all(|i| (m.w_axis[i] - at[i]).abs() < 1e-5)
+        })
+    };
+    assert_eq!(vols.len(), 5, "every object but the Emission shader's");
+    assert!(volume("Emission").is_none());
+    let good = volume("Good").expect("Good");
+    assert_eq!(string(good, "density_grid"), "density");
+    assert_eq!(num(good, "material.density"), 4.0);
+    // The Color Ramp left out: the attribute it reads times the Math's 4.
+    let ramp = volume("Ramp").expect("Ramp");
+    assert_eq!(string(ramp, "density_grid"), "density");
+    assert_eq!(num(ramp, "material.density"), 4.0);
+    // No material: Cycles' default volume shader, every key the node's
+    // default (scene/shader_nodes.cpp, NODE_DEFINE(PrincipledVolumeNode)).
+    let table = |s: &str| -> toml::Value {
+        toml::from_str::<toml::Table>(&format!("p = {s}")).unwrap()["p"].clone()
+    };
+    let nomat = volume("No material").expect("No material");
+    assert_eq!(string(nomat, "density_grid"), "density");
+    assert_eq!(
+        nomat["material"],
+        table(
+            "{ density = 1.0, color = [0.5, 0.5, 0.5], absorption_color = [0.0, 0.0, 0.0], \
+             anisotropy = 0.0, emission_strength = 0.0, emission_color = [1.0, 1.0, 1.0], \
+             blackbody_intensity = 0.0, blackbody_tint = [1.0, 1.0, 1.0], temperature = 1000.0 }"
+        ),
+        "the default Principled Volume"
+    );
+    // A missing attribute reads 0: black colour (no colour grid); no density
+    // (the file's grid stands in, times 0) and, as nothing it reads exists,
+    // no emission either.
+    let mc = volume("Missing colour").expect("Missing colour");
+    assert_eq!(vec(mc, "material.color"), [0.0, 0.0, 0.0]);
+    assert!(mc.get("color_grid").is_none());
+    assert_eq!(num(mc, "material.density"), 4.0);
+    let md = volume("Missing density").expect("Missing density");
+    assert_eq!(string(md, "density_grid"), "density");
+    assert_eq!(num(md, "material.density"), 0.0);
+    assert_eq!(num(md, "material.emission_strength"), 0.0);
+
+    // The whole scene renders.
+    vdbphoton::scene::SceneDesc::load(&toml_path).unwrap();
+    let exr = dir.join("fallback.exr");
+    ok(
+        run(
+            Command::new(BIN)
+                .arg("render")
+                .arg(&toml_path)
+                .args(["--spp", "2", "--no-preview"])
+                .arg("-o")
+                .arg(&exr),
+            "vdbphoton render fallback.toml",
+        ),
+        "vdbphoton render fallback.toml",
+    );
+    let img = read_exr_rgb(&exr).unwrap();
+    assert!(img.pixels.iter().all(|p| p.is_finite()));
+
+    // Cycles against vdbphoton, each object alone filling the frame.
+    for name in ["nomat", "missing"] {
+        let blend = dir.join(format!("{name}.blend"));
+        let toml_path = dir.join(format!("{name}.toml"));
+        let out = ok(
+            export(&py, &blend, &toml_path, &[]),
+            &format!("vdbphoton_export.py {name}.blend"),
+        );
+        let w = exporter_lines(&out.stderr, "warning");
+        assert_eq!(w.len(), usize::from(name == "missing"), "{name}: {w:?}");
+        let ours = dir.join(format!("{name}_vdbphoton.exr"));
+        ok(
+            run(
+                Command::new(BIN)
+                    .arg("render")
+                    .arg(&toml_path)
+                    .args(["--spp", "64", "--no-preview"])
+                    .arg("-o")
+                    .arg(&ours),
+                &format!("vdbphoton render {name}.toml"),
+            ),
+            &format!("vdbphoton render {name}.toml"),
+        );
+        let cycles = dir.join(format!("{name}_cycles.exr"));
+        ok(
+            run(
+                Command::new(&py)
+                    .arg(repo().join("tools/blender/test_export/render_blend.py"))
+                    .arg(&blend)
+                    .arg(&cycles)
+                    .args(["--frame", "1", "--spp", "32", "--threads", "2"]),
+                &format!("render_blend.py {name}.blend (Cycles)"),
+            ),
+            &format!("render_blend.py {name}.blend"),
+        );
+        let a = mean3(&read_exr_rgb(&ours).unwrap().pixels);
+        let b = mean3(&read_exr_rgb(&cycles).unwrap().pixels);
+        let (ma, mb) = (a.iter().sum::<f64>() / 3.0, b.iter().sum::<f64>() / 3.0);
+        eprintln!(
+            "{name}: image mean {ma:.6} (vdbphoton) against {mb:.6} (Cycles), ratio {:.5}",
+            ma / mb
+        );
+        assert!(
+            (ma / mb - 1.0).abs() <= 0.03,
+            "{name}: image mean {ma} against Cycles' {mb}"
+        );
+    }
+
+    // The exporter never raises: an exception inside it (here one planted
+    // in Exporter.export) is one error line and exit status 1, no traceback.
+    let out = run(
+        Command::new(&py)
+            .arg("-c")
+            .arg(
+                "import os, sys\n\
+                 sys.path.insert(0, sys.argv[1])\n\
+                 import vdbphoton_export as ve\n\
+                 def boom(self):\n    raise KeyError('Anisotropy')\n\
+                 ve.Exporter.export = boom\n\
+                 sys.argv = ['vdbphoton_export.py', sys.argv[2], sys.argv[3]]\n\
+                 code = ve.run_main()\n\
+                 sys.stderr.flush()\n\
+                 os._exit(code)\n",
+            )
+            .arg(repo().join("tools/blender"))
+            .arg(dir.join("fallback.blend"))
+            .arg(dir.join("planted.toml")),
+        "vdbphoton_export.py with a planted exception",
+    );
+    let errors = exporter_lines(&out.stderr, "error");
+    assert_eq!(out.status.code(), Some(1), "exit status; errors {errors:?}");
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert!(
+        errors[0].starts_with("the export failed: KeyError: 'Anisotropy'"),
+        "{errors:?}"
+    );
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("Traceback"));
+    assert!(!dir.join("planted.toml").exists());
+    eprintln!("total {:.1} s", t0.elapsed().as_secs_f64());
 }

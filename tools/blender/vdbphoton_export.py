@@ -42,7 +42,15 @@ CLI):
              material becomes [volume.material], every key written; a
              Volume Scatter node's Phase (Henyey-Greenstein, Fournier-Forand,
              Draine, Rayleigh, Mie) its phase table, values outside
-             vdbphoton's ranges clamped with a warning. A
+             vdbphoton's ranges clamped with a warning. What a material
+             needs that vdbphoton cannot take is one warning naming object,
+             material, the unsupported node and the socket it drives, and
+             the nearest value is written (the attribute that node reads,
+             or the socket's own value): no material stops the scene. As
+             Cycles renders them (docs/from_blender.md, "Cycles'
+             semantics"): a Volume object without a material is the
+             default Principled Volume; an Attribute node naming a grid the
+             file lacks reads 0. A
              Volume object with Space = Object (Blender's default) has its
              densities and emission scaled by 1 / |M (1,1,1)/sqrt 3|, as
              Cycles does. A domain's `temperature` attribute is made by
@@ -95,7 +103,8 @@ CLI):
 Warnings go to stderr as `vdbphoton_export: warning: ...`, each naming the
 object, material and node concerned. Fatal problems (no camera, nothing
 to export, output not writable) print one line `vdbphoton_export: error:
-...` and exit with status 1 (2 for a bad command line).
+...` and exit with status 1 (2 for a bad command line); so does any
+unexpected exception (never a traceback; in Blender, one error report).
 
 Fluid domain placement (verified against Cycles 5.0.1 and 3.4.1 renders of
 the shared Blender cache, tools/blender/README.md): Blender sets p0 = the
@@ -147,6 +156,10 @@ DOMAIN_GRIDS = {'density': ('density', 1.0), 'flame': ('flame', 1.0),
 
 class ExportError(Exception):
     pass
+
+
+# An argument not given (where None is a value).
+UNSET = object()
 
 
 def f32(x):
@@ -977,124 +990,183 @@ class Exporter:
 
     def export_material(self, o, mat, resolve, types, comment, names, domain=False):
         """{'grids': {density_grid/temperature_grid/...}, 'material': {...}} or
-        None (warned)."""
+        None (warned: Cycles renders no volume there). What the material
+        needs that vdbphoton cannot take is warned about (once per node and
+        socket) and the nearest value exported; nothing here raises."""
         what = f"{'fluid domain' if domain else 'volume object'} '{o.name}'"
         if mat is None:
+            if not domain:
+                # Cycles (blender/object.cpp, find_used_shaders): a Volume
+                # object without a material, or an empty slot, gets
+                # scene->default_volume, a Principled Volume of the node's
+                # defaults (scene/shader.cpp, ShaderManager::add_default).
+                comment.append("no material: Cycles' default volume shader, a Principled "
+                               "Volume of the node's defaults")
+                ctx = MaterialContext(self, what, "no material (Cycles' default volume shader)")
+                ctx.grid_names = names
+                return self.principled(ctx, DefaultPrincipledVolume(), resolve, types, names)
             self.warn(f"{what} has no material; Blender renders it black (no volume "
                       "shader); not exported")
             return None
         mname = f"material '{mat.name}'"
         nt = mat.node_tree if uses_nodes(mat) else None
         if nt is None:
-            self.warn(f"{what}: {mname} uses no nodes; not exported")
+            self.warn(f"{what}: {mname} uses no nodes (Cycles renders no volume with it); "
+                      "not exported")
             return None
         outs = [n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
         act = [n for n in outs if n.is_active_output and n.target in ('ALL', 'CYCLES')] or \
               [n for n in outs if n.is_active_output] or outs
-        if not act or not act[0].inputs['Volume'].is_linked:
-            self.warn(f"{what}: {mname} has no volume shader; not exported")
+        node = upstream(act[0].inputs['Volume'])[0] if act else None
+        if node is None:
+            self.warn(f"{what}: {mname} has no volume shader (Cycles renders no volume with "
+                      "it); not exported")
             return None
         out = act[0]
         if domain and out.inputs['Surface'].is_linked:
             self.warn(f"{what}: {mname} node '{follow(out.inputs['Surface']).name}' is a surface "
                       "shader, which Blender renders on the domain box; vdbphoton renders only "
                       "the volume")
-        node = follow(out.inputs['Volume'])
         comment.append(f"{mname}, node '{node.name}'")
         ctx = MaterialContext(self, what, mname)
         ctx.grid_names = names
         if node.bl_idname == 'ShaderNodeVolumePrincipled':
-            return self.principled(ctx, node, resolve, types)
+            return self.principled(ctx, node, resolve, types, names)
         leaves = ctx.shader_leaves(node)
-        if leaves is None:
+        if not leaves:
+            # Warned about (the shader left out): that is the one warning.
+            self.note(f"{what}: {mname} leaves no volume shader vdbphoton renders; not "
+                      "exported")
             return None
-        return self.raw_material(ctx, leaves, resolve)
+        return self.raw_material(ctx, leaves, resolve, types, names)
 
-    def attr_grid(self, ctx, node, input_name, attr, resolve, extra):
-        r = resolve(attr)
+    def attr_grid(self, ctx, attr, resolve, extra, then, resolved=UNSET):
+        """(grid, factor) for Attr `attr`, or None with one warning naming
+        the node, the attribute and what is exported instead (`then`).
+        `resolved`: resolve(attr.name), when the caller has it already."""
+        r = resolve(attr.name) if resolved is UNSET else resolved
         if r is None or isinstance(r, str):
-            why = r or ("but the file has no grid for it"
+            why = r or ("but the file has no grid of that name"
                         + (f" (grids: {', '.join(ctx.grid_names)})" if ctx.grid_names else ''))
-            self.warn(f"{ctx.what}: {ctx.mname} node '{node.name}' reads attribute '{attr}' "
-                      f"({input_name}), {why}")
+            ctx.warn(f"node '{attr.node.name}' reads attribute '{attr.name}' ({attr.socket}), "
+                     f"{why}; {then}")
             return None
         g, k, keys = r
         extra.update(keys)
         return g, k
 
-    def principled(self, ctx, pv, resolve, types):
+    def zero_grid(self, ctx, types, names):
+        """A grid of the file to stand for a density that is 0 everywhere
+        (vdbphoton's [[volume]] reads some density grid): its first float
+        grid, or None (then the volume cannot be written)."""
+        if not names:
+            return None
+        floats = [n for n in names if types.get(n) in ('FLOAT', 'DOUBLE')]
+        return (floats or [None])[0]
+
+    # kernel/svm/attribute.h (svm_node_attr_init) and kernel/geom/volume.h
+    # (volume_attribute_float4): an attribute that is not found reads 0.
+    MISSING_IS_ZERO = "Cycles reads a missing attribute as 0"
+
+    def principled(self, ctx, pv, resolve, types, names=None):
         I = pv.inputs
         grids, extra = {}, {}
-        # Density: Density (x Density Attribute grid).
-        dsrc = ctx.scalar(pv, 'Density')
-        if dsrc is None:
+        # Density: Density (x Density Attribute grid). Cycles
+        # (kernel/svm/closure.h, svm_node_principled_volume) multiplies the
+        # Density input by the Density Attribute where that attribute exists.
+        dattr, density = ctx.scalar(pv, 'Density')
+        dsock = str(I['Density Attribute'].default_value).strip()
+        if dattr is not None and dsock:
+            ctx.warn(f"node '{pv.name}': Density is driven by attribute '{dattr.name}' and "
+                     f"Density Attribute '{dsock}' as well, which Cycles multiplies; vdbphoton "
+                     f"takes one grid: '{dattr.name}' used, Density Attribute left out")
+        elif dattr is None and dsock:
+            dattr = Attr(dsock, pv, 'Density Attribute')
+        if dattr is None:
+            ctx.warn(f"node '{pv.name}': no density attribute: Blender fills the object's "
+                     "bounds uniformly, which vdbphoton cannot; not exported")
             return None
-        dattr = str(I['Density Attribute'].default_value).strip()
-        dlink, density = dsrc
-        if dlink is not None and dattr:
-            self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': Density is driven by attribute "
-                      f"'{dlink}' and Density Attribute '{dattr}' as well; not supported")
-            return None
-        dattr = dlink or dattr
-        if not dattr:
-            self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': no density attribute: Blender "
-                      "fills the object's bounds uniformly, which vdbphoton cannot; not exported")
-            return None
-        r = self.attr_grid(ctx, pv, 'Density', dattr, resolve, extra)
+        zero_density = False
+        if dattr.node is pv:
+            # Principled Volume's own socket: Cycles leaves the density
+            # constant where the grid is missing, over the voxels of the
+            # other grids the shader reads; with none, nothing renders.
+            then = ("Cycles then renders no density from it (the volume's mesh is made of "
+                    "the grids the shader reads that exist); density 0 exported")
+        else:
+            then = f"{self.MISSING_IS_ZERO}; density 0 exported"
+        r = self.attr_grid(ctx, dattr, resolve, extra, then)
         if r is None:
-            return None
-        grids['density_grid'] = r[0]
-        density *= r[1]
+            zero_density = True
+            density = 0.0
+        else:
+            grids['density_grid'] = r[0]
+            density *= r[1]
         col = ctx.colour(pv, 'Color')
         cattr = str(I['Color Attribute'].default_value).strip()
-        if col is None:
-            return None
-        if isinstance(col, str):
+        if isinstance(col, Attr):
             if cattr:
-                self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': Color driven by attribute "
-                          f"'{col}' and Color Attribute '{cattr}'; not supported (white used)")
+                ctx.warn(f"node '{pv.name}': Color driven by attribute '{col.name}' and Color "
+                         f"Attribute '{cattr}'; vdbphoton takes one grid: '{col.name}' used")
             cattr, col = col, [1.0, 1.0, 1.0]
+        elif cattr:
+            cattr = Attr(cattr, pv, 'Color Attribute')
         if cattr:
-            r = self.attr_grid(ctx, pv, 'Color Attribute', cattr, resolve, {})
-            if r is not None:
-                if types and types.get(r[0]) not in (None, 'VECTOR_FLOAT'):
-                    self.warn(f"{ctx.what}: colour grid '{r[0]}' is {types.get(r[0])}, not a "
-                              "float vector grid; colour attribute not exported")
-                else:
-                    grids['color_grid'] = r[0]
+            if cattr.node is pv:
+                then = ("Cycles leaves the colour as it is where the attribute is missing; "
+                        "colour attribute not exported")
+            else:
+                then = f"{self.MISSING_IS_ZERO}; Color (0, 0, 0) exported"
+            r = self.attr_grid(ctx, cattr, resolve, {}, then)
+            if r is None:
+                if cattr.node is not pv:
+                    col = [0.0, 0.0, 0.0]
+            elif types and types.get(r[0]) not in (None, 'VECTOR_FLOAT'):
+                ctx.warn(f"colour grid '{r[0]}' is {types.get(r[0])}, not a float vector "
+                         "grid; colour attribute not exported")
+            else:
+                grids['color_grid'] = r[0]
         absorb = ctx.colour(pv, 'Absorption Color', const_only=True)
-        g = ctx.const(pv, 'Anisotropy')
-        if g is not None:
-            g = ctx.in_range(pv, 'Anisotropy', g, 0.0, -1.0, 1.0)
+        g = ctx.in_range(pv, 'Anisotropy', ctx.const(pv, 'Anisotropy'), 0.0, -1.0, 1.0)
         ec = ctx.colour(pv, 'Emission Color', const_only=True)
-        esrc = ctx.scalar(pv, 'Emission Strength')
+        es_attr, es = ctx.scalar(pv, 'Emission Strength')
         bi = ctx.const(pv, 'Blackbody Intensity')
         bt = ctx.colour(pv, 'Blackbody Tint', const_only=True)
-        tsrc = ctx.scalar(pv, 'Temperature')
-        if None in (absorb, g, ec, esrc, bi, bt, tsrc):
-            return None
-        es_attr, es = esrc
+        t_link, temperature = ctx.scalar(pv, 'Temperature')
         if es_attr is not None and es > 0:
-            r = self.attr_grid(ctx, pv, 'Emission Strength', es_attr, resolve, extra)
+            r = self.attr_grid(ctx, es_attr, resolve, extra,
+                               f"{self.MISSING_IS_ZERO}; emission strength 0 exported")
             if r is None:
                 es = 0.0
             else:
                 grids['flame_grid'] = r[0]
                 es *= r[1]
-        t_link, temperature = tsrc
         tattr = str(I['Temperature Attribute'].default_value).strip()
+        tattr = Attr(tattr, pv, 'Temperature Attribute') if tattr else None
         if t_link is not None:
             if tattr:
-                self.warn(f"{ctx.what}: {ctx.mname} node '{pv.name}': Temperature driven by "
-                          f"attribute '{t_link}' and Temperature Attribute '{tattr}'; not "
-                          "supported (blackbody not exported)")
-                bi = 0.0
+                ctx.warn(f"node '{pv.name}': Temperature driven by attribute '{t_link.name}' "
+                         f"and Temperature Attribute '{tattr.name}', which Cycles multiplies; "
+                         f"vdbphoton takes one grid: '{t_link.name}' used")
             tattr = t_link
         if bi > 0 and tattr:
-            r = self.attr_grid(ctx, pv, 'Temperature Attribute', tattr, resolve, extra)
+            # Cycles (svm_node_principled_volume) multiplies the Temperature
+            # by the Temperature Attribute only where it exists; an
+            # Attribute node reading a missing grid is 0. A domain's
+            # attribute that Blender makes 0 everywhere is 0.
+            resolved = resolve(tattr.name)
+            constant = tattr.node is pv and not isinstance(resolved, str)
+            if constant:
+                then = (f"Cycles then uses the Temperature {temperature:g} K alone; so does "
+                        "vdbphoton (where the density is > 0)")
+            elif tattr.node is pv:
+                then = "blackbody emission not exported"
+            else:
+                then = f"{self.MISSING_IS_ZERO}; blackbody emission not exported"
+            r = self.attr_grid(ctx, tattr, resolve, extra, then, resolved=resolved)
             if r is None:
-                self.warn(f"{ctx.what}: blackbody emission is not exported")
-                bi = 0.0
+                if not constant:
+                    bi = 0.0
             else:
                 grids['temperature_grid'] = r[0]
                 temperature *= r[1]
@@ -1102,6 +1174,19 @@ class Exporter:
             self.note(f"{ctx.what}: blackbody at a constant {temperature:g} K (no temperature "
                       "attribute): vdbphoton emits it only where the density is > 0, Blender "
                       "wherever the volume's bounds are")
+        if zero_density:
+            if not grids and (es > 0 or bi > 0):
+                # Cycles builds a Volume's mesh from the grids its shader
+                # reads that exist (scene/volume.cpp, create_volume_mesh):
+                # none here, so not even its constant emission renders.
+                self.note(f"{ctx.what}: no grid its material reads exists, so Cycles renders "
+                          "nothing of it (not even its emission); emission 0 exported")
+                es, bi = 0.0, 0.0
+            z = self.zero_grid(ctx, types, names)
+            if z is None:
+                ctx.warn("the volume has no grid vdbphoton could read; not exported")
+                return None
+            grids['density_grid'] = z
         material = {'density': g7(density), 'color': rounded(col),
                     'absorption_color': rounded(absorb), 'anisotropy': g7(g),
                     'emission_strength': g7(es), 'emission_color': rounded(ec),
@@ -1110,43 +1195,44 @@ class Exporter:
         grids.update(extra)
         return {'grids': grids, 'material': material}
 
-    def raw_material(self, ctx, leaves, resolve):
-        """Volume Scatter / Volume Absorption nodes added together, densities
-        driven by one attribute."""
+    def raw_material(self, ctx, leaves, resolve, types=None, names=None):
+        """Volume Scatter / Volume Absorption nodes added (or mixed)
+        together, densities driven by one attribute."""
         attr = None
         sigma_s = [0.0, 0.0, 0.0]
         sigma_a = [0.0, 0.0, 0.0]
         scatter = []
-        for n in leaves:
-            src = ctx.scalar(n, 'Density')
-            if src is None:
-                return None
-            a, k = src
+        for n, w in leaves:
+            a, k = ctx.scalar(n, 'Density')
+            k *= w
             if a is None:
-                self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}': its Density is a constant "
-                          "(Blender fills the object's bounds uniformly), which vdbphoton cannot; "
-                          "not exported")
-                return None
+                ctx.warn(f"node '{n.name}': its Density is a constant (Blender fills the "
+                         "object's bounds uniformly), which vdbphoton cannot; left out")
+                continue
             if attr is not None and a != attr:
-                self.warn(f"{ctx.what}: {ctx.mname} node '{n.name}' reads attribute '{a}' while "
-                          f"another node reads '{attr}'; not supported")
-                return None
-            attr = a
+                ctx.warn(f"node '{n.name}' reads attribute '{a.name}' while another node "
+                         f"reads '{attr.name}'; vdbphoton takes one grid: '{attr.name}' used "
+                         "for both")
+            attr = attr or a
             c = ctx.colour(n, 'Color', const_only=True)
-            if c is None:
-                return None
             if n.bl_idname == 'ShaderNodeVolumeScatter':
                 phase = self.scatter_phase(ctx, n)
-                if phase is None:
-                    return None
                 scatter.append((phase, k * max(c), n))
                 sigma_s = [sigma_s[i] + k * c[i] for i in range(3)]
             else:
                 sigma_a = [sigma_a[i] + k * max(0.0, 1.0 - c[i]) for i in range(3)]
-        r = self.attr_grid(ctx, leaves[0], 'Density', attr, resolve, {})
-        if r is None:
+        if attr is None:
+            # Each node was warned about (a constant Density).
+            self.note(f"{ctx.what}: {ctx.mname}: no node of it reads a grid; not exported")
             return None
-        grid, f = r
+        r = self.attr_grid(ctx, attr, resolve, {}, f"{self.MISSING_IS_ZERO}; density 0 exported")
+        if r is None:
+            grid, f = self.zero_grid(ctx, types or {}, names), 0.0
+            if grid is None:
+                ctx.warn("the volume has no grid vdbphoton could read; not exported")
+                return None
+        else:
+            grid, f = r
         material = {'sigma_s': rounded([x * f for x in sigma_s]),
                     'sigma_a': rounded([x * f for x in sigma_a])}
         phase = self.mixed_phase(ctx, scatter)
@@ -1175,8 +1261,6 @@ class Exporter:
                 v = default
             else:
                 v = ctx.const(n, sock)
-                if v is None:
-                    return None
             table[key] = ctx.in_range(n, sock, v, default, lo, hi)
         return table
 
@@ -1872,27 +1956,154 @@ def phase_label(table):
     return ' '.join([table['type']] + [f"{k} {v:g}" for k, v in table.items() if k != 'type'])
 
 
+class Attr:
+    """A grid a material reads: its name and the node that names it (an
+    Attribute node, or the Principled Volume whose attribute socket it is)."""
+
+    def __init__(self, name, node, socket):
+        self.name, self.node, self.socket = name, node, socket
+
+    def __eq__(self, other):
+        return isinstance(other, Attr) and self.name == other.name
+
+    def __hash__(self):
+        return hash(self.name)
+
+
+class _Socket:
+    is_linked = False
+    links = ()
+
+    def __init__(self, name, value):
+        self.name = self.identifier = name
+        self.default_value = value
+
+
+class DefaultPrincipledVolume:
+    """Cycles' default volume shader (scene/shader.cpp,
+    ShaderManager::add_default: a PrincipledVolumeNode, nothing linked),
+    with the node's defaults (scene/shader_nodes.cpp,
+    NODE_DEFINE(PrincipledVolumeNode) and its constructor), read as a
+    Principled Volume node is."""
+    name = 'Principled Volume'
+    bl_label = 'Principled Volume'
+    bl_idname = 'ShaderNodeVolumePrincipled'
+    DEFAULTS = (('Color', (0.5, 0.5, 0.5, 1.0)), ('Color Attribute', ''), ('Density', 1.0),
+                ('Density Attribute', 'density'), ('Anisotropy', 0.0),
+                ('Absorption Color', (0.0, 0.0, 0.0, 1.0)), ('Emission Strength', 0.0),
+                ('Emission Color', (1.0, 1.0, 1.0, 1.0)), ('Blackbody Intensity', 0.0),
+                ('Blackbody Tint', (1.0, 1.0, 1.0, 1.0)), ('Temperature', 1000.0),
+                ('Temperature Attribute', 'temperature'))
+
+    def __init__(self):
+        self.inputs = {k: _Socket(k, v) for k, v in self.DEFAULTS}
+
+
 class MaterialContext:
-    """Reads constant inputs and simple attribute links of shader nodes,
-    warning (naming object, material, node, input) about anything else."""
+    """Reads the inputs of volume shader nodes as vdbphoton can take them: a
+    constant, or an attribute (grid) times a constant. Whatever else feeds
+    an input is one warning naming object, material, the node that is
+    unsupported (the deepest one along the link, not the first node
+    downstream of it) and the socket it drives, and the nearest value is
+    used instead: that socket's own value, as if the link were not there,
+    or on an input that takes a grid, the attribute the unsupported node
+    reads (passed through unchanged). The readers never fail."""
 
     def __init__(self, ex, what, mname):
         self.ex, self.what, self.mname = ex, what, mname
         self.grid_names = None
+        self.told = set()
 
-    def bad(self, node, input_name, src):
-        self.ex.warn(f"{self.what}: {self.mname} node '{src.name}' ({src.bl_label}) drives "
-                     f"'{input_name}' of node '{node.name}'; not supported")
+    def warn(self, msg):
+        self.ex.warn(f"{self.what}: {self.mname} {msg}")
+
+    def unsupported(self, bad, into, sock, used):
+        """One warning per unsupported node and socket it drives."""
+        key = (bad.name, into.name, sock)
+        if key in self.told:
+            return
+        self.told.add(key)
+        self.warn(f"node '{bad.name}' ({bad.bl_label}) drives '{sock}' of node '{into.name}'; "
+                  f"not supported: {used}")
+
+    @staticmethod
+    def own_value(sock):
+        v = sock.default_value
+        try:
+            return float(v)
+        except TypeError:
+            c = rgb3(v)
+            return sum(c) / 3.0
+
+    def upstream_attr(self, node):
+        """The first Attribute node (Geometry type) upstream of `node`, or
+        None."""
+        seen, todo = set(), [(node, ())]
+        while todo and len(seen) < 200:
+            n, stack = todo.pop(0)
+            for s in n.inputs:
+                src, out, st = upstream(s, stack)
+                if src is None or src.as_pointer() in seen:
+                    continue
+                seen.add(src.as_pointer())
+                if src.bl_idname == 'ShaderNodeAttribute' and src.attribute_type == 'GEOMETRY' \
+                        and src.attribute_name.strip():
+                    return Attr(src.attribute_name.strip(), src, out.name)
+                todo.append((src, st))
+        return None
+
+    def _scalar(self, node, sock, allow_attr, stack=(), depth=0):
+        """(Attr or None, factor, problem or None) for input socket `sock`
+        of `node`; problem: (unsupported node, node it drives, socket name,
+        what was used)."""
+        src, out, stack = upstream(sock, stack)
+        if src is None:
+            v = out if out is not None else sock
+            return None, self.own_value(v), None
+        if depth > 64:
+            return None, self.own_value(sock), (src, node, sock.name, 'a chain too deep')
+        t = src.bl_idname
+        if t == 'ShaderNodeValue':
+            return None, float(out.default_value), None
+        if allow_attr and t == 'ShaderNodeAttribute' and out.name in ('Fac', 'Factor') and \
+                src.attribute_type == 'GEOMETRY' and src.attribute_name.strip():
+            return Attr(src.attribute_name.strip(), src, out.name), 1.0, None
+        if t == 'ShaderNodeMath' and src.operation == 'MULTIPLY' and not src.use_clamp:
+            a = self._scalar(src, src.inputs[0], allow_attr, stack, depth + 1)
+            b = self._scalar(src, src.inputs[1], allow_attr, stack, depth + 1)
+            prob = a[2] or b[2]
+            if a[0] is not None and b[0] is not None:
+                # Two grids multiplied: vdbphoton takes one.
+                return a[0], a[1] * b[1], prob or (
+                    src, node, sock.name, f"attribute '{a[0].name}' used, '{b[0].name}' left out "
+                    "(vdbphoton multiplies a density by one grid)")
+            return a[0] or b[0], a[1] * b[1], prob
+        # Unsupported: the nearest value.
+        if allow_attr:
+            at = self.upstream_attr(src)
+            if at is not None:
+                return at, 1.0, (src, node, sock.name,
+                                 f"the attribute '{at.name}' it reads is used in its place")
+        v = self.own_value(sock)
+        return None, v, (src, node, sock.name, f"the link is left out ('{sock.name}' = {v:g} "
+                                               f"of node '{node.name}' used)")
+
+    def scalar(self, node, name):
+        """(Attr or None, factor): an input that may read a grid."""
+        attr, k, prob = self._scalar(node, node.inputs[name], True)
+        if prob is not None:
+            self.unsupported(*prob)
+        return attr, k
 
     def const(self, node, name):
-        s = node.inputs[name]
-        if not s.is_linked:
-            return float(s.default_value)
-        src = follow(s)
-        if src.bl_idname == 'ShaderNodeValue':
-            return float(src.outputs[0].default_value)
-        self.bad(node, name, src)
-        return None
+        """A constant input (a Value node counts)."""
+        sock = node.inputs[name]
+        attr, k, prob = self._scalar(node, sock, False)
+        if prob is not None:
+            self.unsupported(*prob)
+        if attr is not None:
+            return self.own_value(sock)
+        return k
 
     def in_range(self, node, name, v, default, lo, hi):
         """A constant of input `name` within [lo, hi], the range vdbphoton
@@ -1910,58 +2121,45 @@ class MaterialContext:
                      f"vdbphoton accepts; {c:g} used")
         return c
 
-    def scalar(self, node, name):
-        """(attribute or None, factor)."""
-        s = node.inputs[name]
-        if not s.is_linked:
-            return None, float(s.default_value)
-        src, sock = follow(s, with_socket=True)
-        if src.bl_idname == 'ShaderNodeValue':
-            return None, float(src.outputs[0].default_value)
-        if src.bl_idname == 'ShaderNodeAttribute' and sock.name in ('Fac', 'Factor') and \
-                src.attribute_type == 'GEOMETRY':
-            return src.attribute_name, 1.0
-        if src.bl_idname == 'ShaderNodeMath' and src.operation == 'MULTIPLY' and not src.use_clamp:
-            a, b = src.inputs[0], src.inputs[1]
-            for x, y in ((a, b), (b, a)):
-                if x.is_linked and not y.is_linked:
-                    n2, s2 = follow(x, with_socket=True)
-                    if n2.bl_idname == 'ShaderNodeAttribute' and s2.name in ('Fac', 'Factor') and \
-                            n2.attribute_type == 'GEOMETRY':
-                        return n2.attribute_name, float(y.default_value)
-        self.bad(node, name, src)
-        return None
-
     def colour(self, node, name, const_only=False):
-        """[r, g, b], or an attribute name (Color output of an Attribute node)."""
+        """[r, g, b], or an Attr (the Color output of an Attribute node)."""
         s = node.inputs[name]
-        if not s.is_linked:
-            return rgb3(s.default_value)
-        src, sock = follow(s, with_socket=True)
+        src, out, _ = upstream(s)
+        if src is None:
+            return rgb3((out if out is not None else s).default_value)
         if src.bl_idname == 'ShaderNodeRGB':
-            return rgb3(src.outputs[0].default_value)
-        if not const_only and src.bl_idname == 'ShaderNodeAttribute' and sock.name == 'Color' \
-                and src.attribute_type == 'GEOMETRY':
-            return src.attribute_name
-        self.bad(node, name, src)
-        return None
+            return rgb3(out.default_value)
+        if not const_only and src.bl_idname == 'ShaderNodeAttribute' and out.name == 'Color' \
+                and src.attribute_type == 'GEOMETRY' and src.attribute_name.strip():
+            return Attr(src.attribute_name.strip(), src, out.name)
+        c = rgb3(s.default_value)
+        self.unsupported(src, node, name, f"the link is left out ('{name}' = "
+                                          f"({c[0]:g}, {c[1]:g}, {c[2]:g}) of node "
+                                          f"'{node.name}' used)")
+        return c
 
-    def shader_leaves(self, node):
+    def shader_leaves(self, node, weight=1.0, stack=()):
+        """[(Volume Scatter or Volume Absorption node, weight)] that `node`
+        adds (Add Shader) or mixes (Mix Shader with a constant Fac).
+        Other shaders are left out with a warning; their light is missing."""
         if node.bl_idname in ('ShaderNodeVolumeScatter', 'ShaderNodeVolumeAbsorption'):
-            return [node]
-        if node.bl_idname == 'ShaderNodeAddShader':
+            return [(node, weight)]
+        if node.bl_idname in ('ShaderNodeAddShader', 'ShaderNodeMixShader'):
+            ins = list(node.inputs)
+            weights = [1.0, 1.0]
+            if node.bl_idname == 'ShaderNodeMixShader':
+                f = min(max(self.const(node, 'Fac'), 0.0), 1.0)
+                ins, weights = ins[1:3], [1.0 - f, f]
             out = []
-            for s in node.inputs:
-                if s.is_linked:
-                    sub = self.shader_leaves(follow(s))
-                    if sub is None:
-                        return None
-                    out.extend(sub)
+            for s, w in zip(ins, weights):
+                src, _, st = upstream(s, stack)
+                if src is not None and w > 0.0:
+                    out.extend(self.shader_leaves(src, weight * w, st))
             return out
-        self.ex.warn(f"{self.what}: {self.mname} node '{node.name}' ({node.bl_label}) is not "
-                     "supported (a Principled Volume, or Volume Scatter and Volume Absorption "
-                     "added together, are); not exported")
-        return None
+        self.warn(f"node '{node.name}' ({node.bl_label}) is not supported (a Principled "
+                  "Volume, or Volume Scatter and Volume Absorption nodes added or mixed, are); "
+                  "it is left out")
+        return []
 
 
 # ------------------------------------------------------- surface materials
@@ -2942,13 +3140,21 @@ def export_scene(path, scene=None, view_layer=None, warn=None, **kw):
     except ExportError:
         raise
     except Exception as e:  # noqa: BLE001 (one clean error, never a traceback)
-        import traceback
-        tb = traceback.extract_tb(e.__traceback__)
-        where = f' (vdbphoton_export.py line {tb[-1].lineno}, {tb[-1].name})' if tb else ''
-        msg = str(e).strip().splitlines()[-1] if str(e).strip() else ''
-        raise ExportError(f"the export failed: {type(e).__name__}{': ' + msg if msg else ''}"
-                          f"{where}; please report it") from None
+        raise ExportError(internal_error(e)) from None
     return ex
+
+
+def internal_error(e):
+    """An unexpected exception as one line: its type, message and where in
+    this file it was raised."""
+    import traceback
+    tb = [f for f in traceback.extract_tb(e.__traceback__)
+          if os.path.basename(f.filename) == os.path.basename(__file__)] or \
+        traceback.extract_tb(e.__traceback__)
+    where = f' (vdbphoton_export.py line {tb[-1].lineno}, {tb[-1].name})' if tb else ''
+    msg = str(e).strip().splitlines()[-1] if str(e).strip() else ''
+    return (f"the export failed: {type(e).__name__}{': ' + msg if msg else ''}{where}; "
+            "please report it")
 
 
 def remove_stale_meshes(path, written):
@@ -3011,6 +3217,9 @@ class EXPORT_SCENE_OT_vdbphoton(bpy.types.Operator, ExportHelper):
                               fluid_velocity=self.fluid_velocity)
         except ExportError as e:
             self.report({'ERROR'}, str(e))
+            return {'CANCELLED'}
+        except Exception as e:  # noqa: BLE001 (one report, never a traceback)
+            self.report({'ERROR'}, internal_error(e))
             return {'CANCELLED'}
         for kind, m in msgs:
             self.report({'WARNING'} if kind == 'warning' else {'INFO'}, m)
@@ -3257,9 +3466,18 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
         except ExportError as e:
             self.report({'ERROR'}, f'vdbphoton: {e}')
             return
-        tmp = tempfile.mkdtemp(prefix='vdbphoton-render-')
+        except Exception as e:  # noqa: BLE001 (one report, never a traceback)
+            self.report({'ERROR'}, f'vdbphoton: {internal_error(e)}')
+            return
+        try:
+            tmp = tempfile.mkdtemp(prefix='vdbphoton-render-')
+        except OSError as e:
+            self.report({'ERROR'}, f'vdbphoton: cannot make a temporary folder: {e}')
+            return
         try:
             self._render(depsgraph, scene, exe, tmp)
+        except Exception as e:  # noqa: BLE001 (one report, never a traceback)
+            self.report({'ERROR'}, f'vdbphoton: {internal_error(e)}')
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
 
@@ -3280,8 +3498,11 @@ class VdbphotonRenderEngine(bpy.types.RenderEngine):
             export_scene(scene_file, scene, depsgraph.view_layer,
                          warn=lambda kind, m: msgs.append((kind, m)),
                          frames=str(frame), output=exr, no_preview=True, depsgraph=depsgraph)
-        except (ExportError, OSError, ValueError) as e:
+        except ExportError as e:
             self.report({'ERROR'}, f'vdbphoton: {e}')
+            return
+        except Exception as e:  # noqa: BLE001 (one report, never a traceback)
+            self.report({'ERROR'}, f'vdbphoton: {internal_error(e)}')
             return
         for kind, m in msgs:
             # The engine renders a border itself (--region).
@@ -3562,8 +3783,18 @@ def _cli_args():
     return sys.argv[1:]
 
 
+def run_main():
+    """main(), never a traceback: an unexpected exception is one error line
+    and exit status 1."""
+    try:
+        return main(_cli_args())
+    except Exception as e:  # noqa: BLE001
+        print(f'{PREFIX}: error: {internal_error(e)}', file=sys.stderr)
+        return 1
+
+
 if __name__ == '__main__':
-    code = main(_cli_args())
+    code = run_main()
     sys.stdout.flush()
     sys.stderr.flush()
     if os.path.basename(sys.argv[0]).lower().startswith('blender'):
