@@ -72,14 +72,19 @@ impl SurfaceAovs {
         ]
     }
 
-    /// Each pass times `w`.
-    pub fn scaled(&self, w: f32) -> SurfaceAovs {
+    /// Each pass times `w` (per channel).
+    pub fn times(&self, w: Rgb) -> SurfaceAovs {
         SurfaceAovs {
             diffuse_direct: self.diffuse_direct * w,
             diffuse_indirect: self.diffuse_indirect * w,
             glossy_direct: self.glossy_direct * w,
             glossy_indirect: self.glossy_indirect * w,
         }
+    }
+
+    /// The four passes together.
+    pub fn total(&self) -> Rgb {
+        self.diffuse_direct + self.diffuse_indirect + self.glossy_direct + self.glossy_indirect
     }
 
     /// Adds `other`'s passes.

@@ -474,45 +474,9 @@ fn smoke_shot_with_a_shadow_catcher_and_a_holdout_ball_against_cycles() {
 
     // Ours: our export, its volume read from the real data and its meshes
     // from tests/data/cycles, rendered by the command line.
-    let tmp = tempfile::tempdir().unwrap();
-    let mut scene: toml::Value =
-        toml::from_str(&std::fs::read_to_string(data().join("smoke25_shot.toml")).unwrap())
-            .unwrap();
-    for v in scene["volume"].as_array_mut().unwrap() {
-        v["file"] = toml::Value::String(
-            real.join("blender_smoke/fluid_data_0025.vdb")
-                .to_string_lossy()
-                .into_owned(),
-        );
-    }
-    for m in scene["mesh"].as_array_mut().unwrap() {
-        let f = data().join(m["file"].as_str().unwrap());
-        m["file"] = toml::Value::String(f.to_string_lossy().into_owned());
-    }
-    let toml_path = tmp.path().join("smoke25_shot.toml");
-    std::fs::write(&toml_path, toml::to_string(&scene).unwrap()).unwrap();
     let mut found = vec![];
     for (choice, spp) in [("path", 256), ("photon", 128)] {
-        let exr = tmp.path().join(format!("{choice}.exr"));
-        let t = std::time::Instant::now();
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_vdbphoton"))
-            .arg("render")
-            .arg(&toml_path)
-            .arg("-o")
-            .arg(&exr)
-            .args(["--no-preview", "--quiet", "--threads", "2", "--seed", "11"])
-            .args(["--integrator", choice, "--spp", &spp.to_string()])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "vdbphoton render ({choice}) failed:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        eprintln!(
-            "smoke25_shot, {choice}: {spp} spp in {:.1} s",
-            t.elapsed().as_secs_f64()
-        );
+        let (_tmp, exr) = render_cli("smoke25_shot", Some(&real), choice, spp);
         let (ours, ow, oh) = exr_channels(&exr);
         assert_eq!((ow, oh), (w, h));
         let comp = composite(
@@ -536,10 +500,16 @@ fn smoke_shot_with_a_shadow_catcher_and_a_holdout_ball_against_cycles() {
 
 // ------------------------------------------- surfaces: issue 50's shots
 
-/// Our render of one of issue 50's scenes (`tests/data/cycles/NAME.toml`,
-/// its meshes beside it, its volumes from `real`) by the command line with
-/// `integrator` at `spp`, seed 11, 2 threads: its RGB, top row first.
-fn ours_cli(name: &str, real: Option<&Path>, integrator: &str, spp: u32) -> ImageRgb {
+/// Our render of one of the scenes of issue 49's and 50's shots
+/// (`tests/data/cycles/NAME.toml`, its meshes beside it, its volumes from
+/// `real`) by the command line with `integrator` at `spp`, seed 11, 2
+/// threads: the EXR, in the folder returned with it.
+fn render_cli(
+    name: &str,
+    real: Option<&Path>,
+    integrator: &str,
+    spp: u32,
+) -> (tempfile::TempDir, PathBuf) {
     let tmp = tempfile::tempdir().unwrap();
     let mut scene: toml::Value =
         toml::from_str(&std::fs::read_to_string(data().join(format!("{name}.toml"))).unwrap())
@@ -597,6 +567,12 @@ fn ours_cli(name: &str, real: Option<&Path>, integrator: &str, spp: u32) -> Imag
         "{name}, {integrator}: {spp} spp in {:.1} s",
         t.elapsed().as_secs_f64()
     );
+    (tmp, exr)
+}
+
+/// [`render_cli`]'s image: its RGB, top row first.
+fn ours_cli(name: &str, real: Option<&Path>, integrator: &str, spp: u32) -> ImageRgb {
+    let (_tmp, exr) = render_cli(name, real, integrator, spp);
     read_exr_rgb(&exr).unwrap()
 }
 

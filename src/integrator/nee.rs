@@ -172,25 +172,10 @@ pub fn direct_light(
 /// `wo` is in `frame` (the shading frame). Lights a BSDF-sampled ray can
 /// also hit (finite suns, an environment map) are weighted by the power
 /// heuristic against BSDF sampling. Only light from the side the ray came
-/// from counts: the BSDFs reflect and do not transmit.
+/// from counts: the BSDFs reflect and do not transmit. Split by the BSDF's
+/// lobes (diffuse and glossy), for Blender's Diffuse and Glossy passes.
 #[allow(clippy::too_many_arguments)]
 pub fn direct_light_surface(
-    world: &World,
-    hit: &crate::shape::Hit,
-    frame: &crate::bsdf::Frame,
-    bsdf: &crate::bsdf::Bsdf,
-    wo: Vec3,
-    time: f32,
-    sources: Sources,
-    rng: &mut Rng,
-) -> Rgb {
-    direct_light_surface_by_lobe(world, hit, frame, bsdf, wo, time, sources, rng).total()
-}
-
-/// [`direct_light_surface`], split by the BSDF's lobes (diffuse and
-/// glossy), for Blender's Diffuse and Glossy passes.
-#[allow(clippy::too_many_arguments)]
-pub fn direct_light_surface_by_lobe(
     world: &World,
     hit: &crate::shape::Hit,
     frame: &crate::bsdf::Frame,

@@ -28,7 +28,7 @@
 //!   the balance heuristic against the emission the BSDF-sampled ray's
 //!   collisions find (see `emission_weight`).
 
-use super::nee::{direct_light, direct_light_surface_by_lobe, EnvLight, Sources};
+use super::nee::{direct_light, direct_light_surface, EnvLight, Sources};
 use super::{catcher, Integrator, SampleKey, SampleResult};
 use crate::film::CatcherSample;
 use crate::light::Light;
@@ -413,7 +413,7 @@ pub fn trace_from(
             let wo = frame.to_local(-ray_d);
             if sampled {
                 let by_lobe =
-                    direct_light_surface_by_lobe(world, &h, &frame, &bsdf, wo, time, sources, rng);
+                    direct_light_surface(world, &h, &frame, &bsdf, wo, time, sources, rng);
                 add_surface_light(&mut res, first_lobe, depth, beta, by_lobe);
             }
             if let Some(ml) = media_light.filter(|_| rng.next_f32() < MEDIA_LIGHT_SHARE) {

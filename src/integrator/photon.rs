@@ -860,7 +860,7 @@ impl Integrator for PhotonIntegrator {
                 res.l += p.l * w;
                 res.direct += p.direct * w;
                 res.indirect += p.indirect * w;
-                res.surface.add(&p.surface.scaled(w));
+                res.surface.add(&p.surface.times(Rgb::splat(w)));
             }
         }
         if let Some(h) = hit {
@@ -872,21 +872,10 @@ impl Integrator for PhotonIntegrator {
                 res.transmittance = 0.0;
                 if tr.max_element() > 0.0 {
                     let (emission, passes) = self.surface_light(world, &h, ray.d, ray.time, rng);
-                    let e = tr * emission;
-                    let (dd, di, gd, gi) = (
-                        tr * passes.diffuse_direct,
-                        tr * passes.diffuse_indirect,
-                        tr * passes.glossy_direct,
-                        tr * passes.glossy_indirect,
-                    );
-                    res.l += e + dd + di + gd + gi;
+                    let (e, passes) = (tr * emission, passes.times(tr));
+                    res.l += e + passes.total();
                     res.emission += e;
-                    res.surface.add(&crate::film::SurfaceAovs {
-                        diffuse_direct: dd,
-                        diffuse_indirect: di,
-                        glossy_direct: gd,
-                        glossy_indirect: gi,
-                    });
+                    res.surface.add(&passes);
                 }
             }
             if flags.shadow_catcher && !flags.holdout {
@@ -1206,7 +1195,7 @@ impl PhotonIntegrator {
             }
             let frame = crate::bsdf::Frame::from_normal(sh.n);
             let wo = frame.to_local(-d);
-            let ld = super::nee::direct_light_surface_by_lobe(
+            let ld = super::nee::direct_light_surface(
                 world, &hit, &frame, &bsdf, wo, time, sources, rng,
             );
             if depth == 1 {
