@@ -408,6 +408,122 @@ fn a_shadow_catcher_under_a_slab_gives_its_transmittance() {
     }
 }
 
+/// The irradiance at ground point `p` (z = 0, facing up) from an
+/// absorbing, glowing box (`lo`..`hi`, absorption `sigma_a`, emission `e`
+/// per unit length): ∫ L cos θ dω with L = e/σa · (1 − e^(−σa ℓ)) over the
+/// chord ℓ of each direction, by the midpoint rule in u = sin²θ (cos θ dω
+/// = du dφ / 2).
+fn glow_irradiance(p: DVec3, lo: DVec3, hi: DVec3, sigma_a: f64, e: f64) -> f64 {
+    let (nu, nphi) = (200, 400);
+    let mut sum = 0.0;
+    for i in 0..nu {
+        let u = (i as f64 + 0.5) / nu as f64;
+        let (st, ct) = (u.sqrt(), (1.0 - u).sqrt());
+        for j in 0..nphi {
+            let phi = 2.0 * PI * (j as f64 + 0.5) / nphi as f64;
+            let d = DVec3::new(st * phi.cos(), st * phi.sin(), ct);
+            let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+            for k in 0..3 {
+                let (a, b) = ((lo[k] - p[k]) / d[k], (hi[k] - p[k]) / d[k]);
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            }
+            if t1 > t0 {
+                sum += e / sigma_a * (1.0 - (-sigma_a * (t1 - t0)).exp());
+            }
+        }
+    }
+    sum * 0.5 * (2.0 * PI) / (nu * nphi) as f64
+}
+
+/// A shadow catcher beside and under a glowing, absorbing slab, the sun
+/// 30° from the zenith: the pass is (E_sun·T + E_glow) / E_sun, T the
+/// slab's transmittance towards the sun where it shadows the ground (1
+/// elsewhere) and E_glow the slab's irradiance on the ground
+/// ([`glow_irradiance`], a quadrature). The path tracer finds the glow by
+/// its catcher bounce on a share of the samples where the sun reaches the
+/// ground (Russian roulette around the sky) and by sampling the emission
+/// (MIS against the bounce's collisions); the photon integrator by the
+/// bounce on every sample. Fails if the roulette's survivors are not
+/// divided by their probability (the glow 1/8 of itself in the sun), if
+/// the emission is counted by both the sample and the collisions (twice),
+/// or by neither.
+#[test]
+fn a_shadow_catcher_beside_a_glowing_slab_takes_its_light() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    write_slab(&d.join("slab.vdb"), -4.0, 0.0, 1.0);
+    write_ply(
+        &d.join("ground.ply"),
+        &quad([
+            Vec3::new(-20.0, -20.0, 0.0),
+            Vec3::new(20.0, -20.0, 0.0),
+            Vec3::new(20.0, 20.0, 0.0),
+            Vec3::new(-20.0, 20.0, 0.0),
+        ]),
+    );
+    let (sa, e) = (0.7f32, 0.6f32);
+    let sun = Vec3::new(0.0, 0.5, 3f32.sqrt() / 2.0);
+    let w = 16;
+    let scene = top_down(
+        w,
+        sa,
+        0.0,
+        sun,
+        "emission = 0.6\n[[mesh]]\nfile = \"ground.ply\"\nshadow_catcher = true\n",
+    )
+    .replace("[render]\n", "[render]\nfilm_transparent = true\n");
+    std::fs::write(d.join("s.toml"), scene).unwrap();
+    let (lo, hi) = (DVec3::new(-4.0, -4.0, 1.0), DVec3::new(0.0, 4.0, 2.0));
+    let sun_e = 2.0 * (30f64).to_radians().cos();
+    let shadow = (-(sa as f64) / (30f64).to_radians().cos()).exp();
+    // The expected pass at each pixel's centre, and whether the pixel is
+    // in the slab's shadow (pixels over the shadow's edge are left out).
+    let mut want = vec![];
+    for y in 0..w {
+        for x in 0..w {
+            let r = pixel_ray(x, y, w);
+            let g = DVec3::new(r.x * 10.0 / -r.z, r.y * 10.0 / -r.z, 0.0);
+            if g.x.abs() < 0.15 {
+                continue;
+            }
+            let t = if g.x < 0.0 { shadow } else { 1.0 };
+            let glow = glow_irradiance(g, lo, hi, sa as f64, e as f64);
+            want.push((x, y, g.x < 0.0, t + glow / sun_e, glow / sun_e));
+        }
+    }
+    for integrator in ["path", "photon"] {
+        let img = render(d, "s.toml", &["--integrator", integrator, "--spp", "1024"]);
+        let pass = img.layer("shadow_catcher").expect("a shadow_catcher layer");
+        for in_shadow in [false, true] {
+            let (mut got, mut sum, mut glow, mut var) = (0.0f64, 0.0, 0.0, 0.0);
+            let mut n = 0.0;
+            for &(x, y, _, pass_want, g) in want.iter().filter(|p| p.2 == in_shadow) {
+                got += pass.get(x as usize, y as usize)[0] as f64;
+                sum += pass_want;
+                glow += g;
+                n += 1.0;
+            }
+            for &(x, y, _, pass_want, _) in want.iter().filter(|p| p.2 == in_shadow) {
+                let p = pass.get(x as usize, y as usize)[0] as f64;
+                var += (p - pass_want).powi(2);
+            }
+            let sigma = (var / (n - 1.0) / n).sqrt();
+            let (got, sum, glow) = (got / n, sum / n, glow / n);
+            let what = if in_shadow { "shadow" } else { "sun" };
+            eprintln!("{integrator}, {what}: pass {got:.5} ± {sigma:.5}, expected {sum:.5} (glow {glow:.4})");
+            assert!(
+                n > 50.0 && glow > 0.05,
+                "{what}: {n} pixels, the glow {glow} of the sun"
+            );
+            assert!(
+                (got - sum).abs() < 4.0 * sigma + 0.01 * sum,
+                "{integrator}, in the {what}: the pass is {got} ± {sigma}, expected {sum} (the glow {glow} of it)"
+            );
+        }
+    }
+}
+
 /// With a transparent film the world seen directly is not in the colour,
 /// and only that changes: where the camera sees past everything, colour
 /// and alpha are 0 (the opaque film's colour is the world there); through

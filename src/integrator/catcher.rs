@@ -21,9 +21,12 @@
 //! - one cosine-weighted direction takes the world and what the scene
 //!   sends: unshadowed, the world's radiance there (unless a catcher is in
 //!   the way); shadowed, a path from the catcher through the scene
-//!   (`bounce`, the path tracer from a diffuse surface), which gathers the
-//!   world through the media, light the media scatter and the media's own
-//!   emission.
+//!   (`bounce`, the path tracer from a diffuse surface, with the media's
+//!   emission also sampled from the catcher), which gathers the world
+//!   through the media, light the media scatter and the media's own
+//!   emission. Where the lights reach the catcher unshadowed that path is
+//!   a small part of its light and is traced on a share of the samples
+//!   only (Russian roulette around the unshadowed world).
 
 use crate::film::CatcherSample;
 use crate::ray::Ray;
@@ -42,7 +45,8 @@ pub fn estimate(
     hit: &Hit,
     time: f32,
     rng: &mut Rng,
-    bounce: impl FnOnce(&Ray, &mut Rng) -> Rgb,
+    share: f32,
+    bounce: impl FnOnce(&Ray, f32, &mut Rng) -> Rgb,
 ) -> CatcherSample {
     let n = hit.n;
     let mut out = CatcherSample::default();
@@ -75,12 +79,34 @@ pub fn estimate(
     let (t, b) = coordinate_system(n);
     let w = t * local.x + b * local.y + n * local.z;
     let p = hit.spawn(w);
-    if !world
+    let sky = if world
         .shapes
         .occluded_where(p, w, f32::INFINITY, RayKind::DIFFUSE, catcher)
     {
-        out.unshadowed += world.environment.le(w);
+        Rgb::ZERO
+    } else {
+        world.environment.le(w)
+    };
+    out.unshadowed += sky;
+    // The bounce by Russian roulette around the unshadowed sky (a control
+    // variate): `sky + (bounce − sky)/q` with probability q, else `sky`,
+    // whose mean is the bounce's for any q. Where the lights reach the
+    // catcher unshadowed the bounce is a small part of what it receives
+    // and is traced on BOUNCE_SHARE of the samples; in the volumes' shadow
+    // it is most of it, and always traced.
+    let lit = if out.unshadowed.max_element() > 0.0 {
+        (out.shadowed.element_sum() / out.unshadowed.element_sum()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let q = 1.0 - (1.0 - share.clamp(0.0, 1.0)) * lit;
+    out.shadowed += sky;
+    if q >= 1.0 || rng.next_f32() < q {
+        out.shadowed += (bounce(&Ray::at_time(p, w, time), local.z * FRAC_1_PI, rng) - sky) / q;
     }
-    out.shadowed += bounce(&Ray::at_time(p, w, time), rng);
     out
 }
+
+/// The share of samples that trace the catcher's bounce where the lights
+/// reach it unshadowed (more in the volumes' shadow, all in full shadow).
+pub const BOUNCE_SHARE: f32 = 0.125;

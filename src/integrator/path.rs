@@ -161,7 +161,7 @@ fn escaped(world: &World, w: Vec3, phase_pdf: f32, sources: Sources) -> Rgb {
 
 /// Where a path starts, which decides what its first ray sees and what
 /// it makes of it (Blender's ray visibility and film semantics).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Start {
     /// A camera ray. It stops at the surfaces camera rays see: a holdout,
     /// and, surfaces not being shaded yet, every other mesh, adds nothing
@@ -171,9 +171,12 @@ pub enum Start {
     /// transparent.
     Camera,
     /// A ray leaving a diffuse surface (the shadow catcher's bounce): it
-    /// stops at what diffuse rays see (unshaded, black), and the world it
-    /// reaches unscattered counts.
-    Diffuse,
+    /// stops at what diffuse rays see, and the world it reaches
+    /// unscattered counts. `leaving`: the surface point and the density of
+    /// the ray's direction, when the media's emission is also sampled from
+    /// there (the emission its collisions find is then weighted against
+    /// that sample).
+    Diffuse { leaving: Option<(Vec3, f32)> },
 }
 
 impl Start {
@@ -181,7 +184,7 @@ impl Start {
     fn kind(self) -> RayKind {
         match self {
             Start::Camera => RayKind::CAMERA,
-            Start::Diffuse => RayKind::DIFFUSE,
+            Start::Diffuse { .. } => RayKind::DIFFUSE,
         }
     }
 }
@@ -208,18 +211,37 @@ pub fn trace(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> Sampl
     trace_from(world, max_bounces, ray, rng, Sources::of(world), Start::Camera, None)
 }
 
-/// The light a ray leaving a shadow catcher towards `ray.d` receives (a
-/// path from [`Start::Diffuse`], all sources as [`Sources::of`] takes
-/// them): the catcher's bounce.
-pub fn bounce(world: &World, max_bounces: u32, ray: &Ray, rng: &mut Rng) -> Rgb {
-    trace_from(
+/// The light a ray leaving shadow catcher `hit` towards `ray.d` receives
+/// (`pdf`: the density of that direction; the catcher is white and
+/// Lambertian): a path from [`Start::Diffuse`], all sources as
+/// [`Sources::of`] takes them, and with `media_light`, on
+/// [`MEDIA_LIGHT_SHARE`] of the calls, a sample of the media's emission
+/// weighted against the path's by multiple importance sampling, as at any
+/// surface: the catcher's bounce.
+pub fn bounce(
+    world: &World,
+    max_bounces: u32,
+    hit: &crate::shape::Hit,
+    ray: &Ray,
+    pdf: f32,
+    media_light: Option<&MediaLight>,
+    rng: &mut Rng,
+) -> Rgb {
+    let mut l = Rgb::ZERO;
+    if let Some(ml) = media_light.filter(|_| rng.next_f32() < MEDIA_LIGHT_SHARE) {
+        let frame = Frame::from_normal(hit.n);
+        let white = crate::bsdf::Bsdf::diffuse(Rgb::ONE, 0.0);
+        l += media_light_surface(world, ml, hit, &frame, &white, Vec3::Z, ray.time, rng).total();
+    }
+    let leaving = media_light.map(|_| (hit.p, pdf));
+    l + trace_from(
         world,
         max_bounces,
         ray,
         rng,
         Sources::of(world),
-        Start::Diffuse,
-        None,
+        Start::Diffuse { leaving },
+        media_light,
     )
     .l
 }
@@ -259,7 +281,10 @@ pub fn trace_from(
     // path's collisions then add emission from its first scattering on.
     // The walk that gives it, and alpha, shares the first flight's lookups
     // (`sample_t_maj_camera`).
-    let camera_emission = media.is_emissive() && !env_only;
+    // (A bounce whose collisions weigh the emission against the media
+    // light's sample finds it by its collisions from the start.)
+    let weighted_start = matches!(start, Start::Diffuse { leaving: Some(_) });
+    let camera_emission = media.is_emissive() && !env_only && !weighted_start;
     let mut beta = Rgb::ONE;
     let mut ray_o = ray.o;
     let mut ray_d = ray.d;
@@ -273,7 +298,10 @@ pub fn trace_from(
     let mut first_lobe: Option<bool> = None;
     // Where the current flight left a surface, with the BSDF's density of
     // its direction, when the media's emission is also sampled from there.
-    let mut from_surface: Option<(Vec3, f32)> = None;
+    let mut from_surface: Option<(Vec3, f32)> = match start {
+        Start::Diffuse { leaving } => leaving,
+        Start::Camera => None,
+    };
     loop {
         let lobe = first_lobe;
         let leaving = from_surface;
@@ -348,7 +376,7 @@ pub fn trace_from(
             }
             false
         };
-        let left = if !env_only && first_flight {
+        let left = if !env_only && first_flight && !weighted_start {
             let (left, tr, e) =
                 tracking::sample_t_maj_camera(media, &segment, t_max, rng, on_collision);
             res.l += e;
@@ -366,8 +394,8 @@ pub fn trace_from(
             let flags = world.shapes.object(h.object).flags;
             if flags.shadow_catcher && !flags.holdout {
                 res.catcher = Some(if res.transmittance > 0.0 {
-                    catcher::estimate(world, &h, time, rng, |r, rng| {
-                        bounce(world, max_bounces, r, rng)
+                    catcher::estimate(world, &h, time, rng, catcher::BOUNCE_SHARE, |r, pdf, rng| {
+                        bounce(world, max_bounces, &h, r, pdf, media_light, rng)
                     })
                     .scaled(res.transmittance)
                 } else {

@@ -880,8 +880,8 @@ impl Integrator for PhotonIntegrator {
             }
             if flags.shadow_catcher && !flags.holdout {
                 res.catcher = Some(if res.transmittance > 0.0 {
-                    super::catcher::estimate(world, &h, ray.time, rng, |r, rng| {
-                        super::path::bounce(world, self.max_bounces, r, rng)
+                    super::catcher::estimate(world, &h, ray.time, rng, 1.0, |r, pdf, rng| {
+                        super::path::bounce(world, self.max_bounces, &h, r, pdf, None, rng)
                     })
                     .scaled(res.transmittance)
                 } else {
