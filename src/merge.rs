@@ -245,7 +245,17 @@ pub fn merge(out: &Path, inputs: &[PathBuf], options: &MergeOptions) -> Result<M
                 ),
             ));
         }
+        // Parts whose integrators `auto` chose may differ in it (each
+        // job runs its own pilots, and near a tie they may choose
+        // differently): both estimate the same image, so their pixels
+        // merge, and only each integrator's own settings go unchecked.
+        let by_auto = |i: &Input| i.attrs.contains_key("vdbphoton/auto");
+        let integrator = |i: &Input| i.attrs.get("vdbphoton/integrator").cloned();
+        let mixed = by_auto(first) && by_auto(f) && integrator(first) != integrator(f);
         for key in must_agree() {
+            if mixed && (!MUST_AGREE.contains(&key) || key == "vdbphoton/integrator") {
+                continue;
+            }
             let (a, b) = (first.attrs.get(key), f.attrs.get(key));
             if a != b {
                 let show = |v: Option<&String>| v.map_or("(none)".to_string(), |s| s.clone());
@@ -419,6 +429,18 @@ pub fn merge(out: &Path, inputs: &[PathBuf], options: &MergeOptions) -> Result<M
         groups.keys().copied().collect::<Vec<_>>().join(","),
     ));
     attrs.push(("vdbphoton/merged_inputs".into(), files.len().to_string()));
+    let mut integrators: Vec<&str> = files
+        .iter()
+        .filter_map(|f| f.attrs.get("vdbphoton/integrator").map(String::as_str))
+        .collect();
+    integrators.sort_unstable();
+    integrators.dedup();
+    if integrators.len() > 1 {
+        attrs.push((
+            "vdbphoton/merged_integrators".into(),
+            format!("{} (chosen by auto in each part)", integrators.join(", ")),
+        ));
+    }
     let mut failed = None;
     if let Some(d) = &denoiser {
         attrs.push(("vdbphoton/denoise".into(), "done".into()));

@@ -8,7 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use vdbphoton::image::{read_exr, read_exr_rgb};
+use vdbphoton::image::{read_exr, read_exr_rgb, write_exr};
 
 const BIN: &str = env!("CARGO_BIN_EXE_vdbphoton");
 
@@ -449,6 +449,79 @@ fn tiles_are_the_pixels_of_the_whole_frame_and_merge_into_it() {
         assert_eq!(m.pixels(), full.pixels(), "{integrator}");
         assert_eq!(m.layers(), full.layers(), "{integrator}");
     }
+}
+
+/// Tiles whose integrators `auto` chose (their headers say why) merge
+/// even when the jobs chose differently: both integrators estimate the same
+/// image, and the merged header names both. Tiles of integrators named
+/// explicitly must agree.
+#[test]
+fn tiles_of_integrators_auto_chose_differently_merge() {
+    let d = common::tempdir();
+    let dir = d.path();
+    let t = tiles(dir, "path");
+    ok(
+        dir,
+        &[
+            "render",
+            "seq.toml",
+            "--frame",
+            "1",
+            "--tile",
+            "3/4",
+            "--integrator",
+            "photon",
+            "-o",
+            "p3.exr",
+            "-q",
+        ],
+    );
+    // Tiles of one scene whose integrator is "auto" (one scene hash); the
+    // photon tile was rendered with another integrator named, so its hash
+    // is set to the others'.
+    let edit = |f: &str, auto: bool, hash: &str| {
+        let (image, mut attrs) = read_exr(dir.join(f)).unwrap();
+        for (k, v) in attrs.iter_mut() {
+            if k == "vdbphoton/scene_hash" {
+                *v = hash.to_string();
+            }
+        }
+        if auto {
+            attrs.push(("vdbphoton/auto".into(), "measured on pilots".into()));
+        }
+        write_exr(dir.join(f), &image, &attrs).unwrap();
+    };
+    let scene_hash = read_exr(dir.join(&t[0]))
+        .unwrap()
+        .1
+        .into_iter()
+        .find(|(k, _)| k == "vdbphoton/scene_hash")
+        .unwrap()
+        .1;
+    edit("p3.exr", false, &scene_hash);
+    // Integrators named explicitly must agree.
+    let r = run(dir, &["merge", "bad.exr", &t[0], &t[1], &t[2], "p3.exr"]);
+    assert_eq!(r.code, 1);
+    assert!(r.stderr.contains("vdbphoton/integrator"), "{}", r.stderr);
+    assert!(!dir.join("bad.exr").exists());
+    // As `auto` would have written them, saying why they chose.
+    for f in [&t[0], &t[1], &t[2], &"p3.exr".to_string()] {
+        edit(f, true, &scene_hash);
+    }
+    ok(dir, &["merge", "m.exr", &t[0], &t[1], &t[2], "p3.exr"]);
+    let (m, attrs) = read_exr(dir.join("m.exr")).unwrap();
+    let (p3, _) = read_exr(dir.join("p3.exr")).unwrap();
+    for y in 0..15 {
+        for x in 0..20 {
+            assert_eq!(m.get(x + 20, y + 15), p3.get(x, y));
+        }
+    }
+    assert!(
+        attrs
+            .iter()
+            .any(|(k, v)| k == "vdbphoton/merged_integrators" && v.starts_with("path, photon")),
+        "{attrs:?}"
+    );
 }
 
 #[test]

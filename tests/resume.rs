@@ -152,6 +152,41 @@ fn a_killed_tile_resumes_to_the_same_pixels() {
     killed_and_resumed("photon", &["--tile", "1/4"]);
 }
 
+/// A render whose integrator `auto` chose, killed and resumed, goes on
+/// with the integrator its state was made with, without a pilot of its own
+/// (which could choose the other, and the state would then be refused):
+/// the header says so, and the pixels are those of an uninterrupted render
+/// with that integrator named.
+#[test]
+fn a_killed_auto_render_resumes_with_the_integrator_it_chose() {
+    let dir = common::tempdir();
+    let spp = 40;
+    let exr = dir.path().join("killed.exr");
+    let mut a = args(&exr, "auto", spp, &[]);
+    a.extend(["--checkpoint".into(), "0.05s".into()]);
+    let mut child = spawn(&a);
+    wait_for(&state(&exr));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let chosen = vdbphoton::render::resume::integrator_of(&state(&exr))
+        .expect("the state names its integrator");
+    a.push("--resume".into());
+    let o = ok(&a);
+    assert!(
+        resumed_after(&o.stderr).is_some(),
+        "not resumed: {}",
+        o.stderr
+    );
+    let (img, attrs) = read_exr(&exr).unwrap();
+    let get = |k: &str| attrs.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
+    assert_eq!(get("vdbphoton/integrator"), Some(chosen.clone()));
+    let why = get("vdbphoton/auto").unwrap_or_default();
+    assert!(why.contains("resumed"), "{why}");
+    let whole = dir.path().join("whole.exr");
+    ok(&args(&whole, &chosen, spp, &[]));
+    assert_eq!(img, image(&whole), "{chosen}");
+}
+
 /// Runs a render and sends it SIGTERM `times` times at once once it has
 /// reported progress (a pass is under way); returns its exit code and
 /// stderr.

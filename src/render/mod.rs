@@ -12,6 +12,7 @@ use crate::scene::{SceneDesc, AUTO_INTEGRATOR};
 use crate::world::World;
 use std::path::{Path, PathBuf};
 
+pub mod auto;
 mod overrides;
 pub mod passes;
 pub mod report;
@@ -234,88 +235,89 @@ pub fn prepare_outputs(exr: &Path, preview: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-/// The integrator `auto` stands for, and why, for a loaded world, from
-/// what a pilot of photons measures ([`integrator::photon::pilot`]): the
-/// share of the light the volumes emit themselves, the share of photons
-/// that scatter, and how many times a photon scatters on average.
-///
-/// The rules, from `cargo bench --bench equal_time` (docs/performance.md,
-/// "The benchmark set"), relative MSE at 10 and 30 s on 2 threads:
-/// - nothing scatters light: the path tracer; photons would carry nothing;
-/// - the volumes glow, and their light scatters: photon mapping, whose
-///   photons carry the fire's light scattered by the smoke from every
-///   emitting voxel, which the path tracer finds only by chance (Blender's
-///   fire frame 0.20x and 0.30x the path tracer's error, its smoke + fire
-///   frame under a sun 0.35x and 0.58x), denoised or not;
-/// - otherwise a denoised image: the path tracer, whose noise is what the
-///   denoiser removes (the photon estimate's error is blotches the size of
-///   its kernels and a slight bias, which it leaves);
-/// - sky light alone (at least [`SKY_SHARE`] of the light): the path
-///   tracer, whose paths escape to the sky as soon as they leave the
-///   cloud, where a photon map of sky light has the variance of a density
-///   estimate (the reference cloud under a sky 3.2x and 4.2x the path
-///   tracer's error at 10 and 30 s, the pyro 3.3x and 3.9x, the dense
-///   cloud, close to a white furnace, 11x and 21x);
-/// - lights, and photons that scatter [`SCATTERING_ORDER`] times or more
-///   on average: photon mapping, where paths are long and a photon map
-///   shares them between pixels (the dense cloud under a sun 0.71x and
-///   0.78x; the bundled cloud, 7.7 times, 0.27x at 10 s);
-/// - else the path tracer: the photon map's blur costs more than the paths
-///   it saves (the reference cloud, 4.9 times, 0.80x at 10 s but 0.98x at
-///   30 s, and 1.06x in another run; the Houdini pyro, 4.7 times, 1.04x and
-///   1.32x; the thin cloud of albedo 0.8 1.04x and 1.32x).
+/// The integrator `auto` stands for, and why, for a loaded world and a
+/// render of `horizon`:
+/// - nothing scatters light: the path tracer at once; photons would carry
+///   nothing (a frame of pure emission, an empty volume);
+/// - no light reaches the volumes (a pilot of photons,
+///   [`integrator::photon::pilot`]): the path tracer at once;
+/// - a denoised image: the path tracer, whose noise is what the denoiser
+///   removes (the photon estimate's error is blotches the size of its
+///   kernels, which it leaves), unless the volumes glow and their light
+///   scatters ([`GLOW_SHARE`], [`GLOW_SCATTERING`]): photons carry the
+///   fire's light scattered by the smoke from every emitting voxel, which
+///   the path tracer finds only by chance (docs/performance.md,
+///   "Denoising");
+/// - otherwise both integrators render a pilot on the frame itself and the
+///   one with the lower predicted error at the horizon renders
+///   ([`auto::measure`], [`auto::decide`]).
 pub fn choose_integrator(
+    desc: &SceneDesc,
     world: &World,
-    denoise: bool,
-    max_bounces: u32,
-    seed: u64,
-) -> (&'static str, String) {
+    horizon: auto::Horizon,
+) -> Result<(&'static str, String)> {
+    let r = &desc.render;
     let path = integrator::path::REGISTRATION.name;
     let photon = integrator::photon::REGISTRATION.name;
     if !world.media.scatters() {
-        return (
+        return Ok((
             path,
-            "nothing scatters light (absorption or emission only, or no density): the path tracer; photons would carry nothing".into(),
-        );
+            "nothing scatters light (absorption or emission only, or no density): the path tracer at once; photons would carry nothing".into(),
+        ));
     }
-    let Some(p) = integrator::photon::pilot(world, max_bounces, seed) else {
-        return (path, "no light reaches the volumes: the path tracer".into());
+    let Some(p) = integrator::photon::pilot(world, r.max_bounces, r.seed) else {
+        return Ok((
+            path,
+            "no light reaches the volumes: the path tracer at once".into(),
+        ));
     };
-    let measured = format!(
-        "the volumes emit {:.0} % of the light, the sky {:.0} %; {:.0} % of the photons scatter, {:.1} times on average",
-        100.0 * p.media_share.max(0.0),
-        100.0 * p.environment_share.max(0.0),
-        100.0 * p.scattering,
-        p.order
+    if r.denoise {
+        let measured = format!(
+            "the volumes emit {:.0} % of the light; {:.0} % of their photons scatter",
+            100.0 * p.media_share.max(0.0),
+            100.0 * p.media_scattering
+        );
+        return Ok(
+            if p.media_share >= GLOW_SHARE && p.media_scattering >= GLOW_SCATTERING {
+                (
+                    photon,
+                    format!("denoised; {measured}: photon mapping, whose photons carry the volumes' glow scattered by the smoke (the path tracer finds it by chance)"),
+                )
+            } else {
+                (
+                    path,
+                    format!(
+                        "denoised; {measured}: the path tracer, whose noise the denoiser removes"
+                    ),
+                )
+            },
+        );
+    }
+    let mut candidates = Vec::new();
+    for name in [path, photon] {
+        let reg = integrator::find(name)
+            .ok_or_else(|| Error::Scene(format!("there is no integrator '{name}'")))?;
+        // An integrator that cannot render this world is no candidate.
+        if let Ok(i) = (reg.build)(desc, world) {
+            candidates.push((name, i));
+        }
+    }
+    if candidates.len() < 2 {
+        return Ok((
+            path,
+            "the photon integrator cannot render this scene: the path tracer".into(),
+        ));
+    }
+    let measured = auto::measure(
+        world,
+        candidates
+            .iter_mut()
+            .map(|(n, i)| (*n, i.as_mut() as &mut dyn Integrator))
+            .collect(),
+        r.seed,
+        horizon,
     );
-    if p.media_share >= GLOW_SHARE && p.media_scattering >= GLOW_SCATTERING {
-        return (
-            photon,
-            format!("{measured}: photon mapping, whose photons carry the volumes' glow scattered by the smoke (the path tracer finds it by chance)"),
-        );
-    }
-    if denoise {
-        return (
-            path,
-            format!("{measured}; denoised: the path tracer, whose noise the denoiser removes"),
-        );
-    }
-    if p.environment_share >= SKY_SHARE {
-        (
-            path,
-            format!("{measured}: the path tracer, since sky light alone lights the volumes mostly (there a path tracer's paths escape to the sky at once, and the photon map's noise is the larger)"),
-        )
-    } else if p.order >= SCATTERING_ORDER {
-        (
-            photon,
-            format!("{measured}: photon mapping, which shares long paths between pixels"),
-        )
-    } else {
-        (
-            path,
-            format!("{measured}: the path tracer (photon mapping pays from {SCATTERING_ORDER} scattering events on)"),
-        )
-    }
+    Ok(auto::decide(&measured, horizon))
 }
 
 /// The share of the light the volumes must emit themselves for `auto` to
@@ -326,31 +328,24 @@ pub const GLOW_SHARE: f32 = 0.1;
 /// to take photon mapping for their glow.
 pub const GLOW_SCATTERING: f64 = 0.2;
 
-/// The share of the light the sky must give for `auto` to keep the path
-/// tracer whatever the scattering order.
-pub const SKY_SHARE: f32 = 0.5;
-
-/// The mean scattering order from which `auto` takes photon mapping for
-/// volumes that lights (not the sky) light.
-pub const SCATTERING_ORDER: f64 = 6.0;
-
-/// Builds the integrator a scene asks for (`auto`: [`choose_integrator`]),
-/// from the registry.
+/// Builds the integrator a scene asks for (`auto`: [`choose_integrator`],
+/// for a render of the scene's samples).
 pub fn make_integrator(desc: &SceneDesc, world: &World) -> Result<Box<dyn Integrator>> {
-    Ok(build_integrator(desc, world)?.0)
+    let horizon = auto::Horizon::Passes(desc.render.spp.max(1));
+    Ok(build_integrator(desc, world, horizon)?.0)
 }
 
-/// [`make_integrator`], with `auto`'s reason for its choice (`None` for an
-/// integrator the scene names).
+/// [`make_integrator`] for a render of `horizon`, with `auto`'s reason for
+/// its choice (`None` for an integrator the scene names).
 pub fn build_integrator(
     desc: &SceneDesc,
     world: &World,
+    horizon: auto::Horizon,
 ) -> Result<(Box<dyn Integrator>, Option<String>)> {
     check_integrator(desc)?;
     let (name, why) = match desc.render.integrator.as_str() {
         AUTO_INTEGRATOR => {
-            let r = &desc.render;
-            let (name, why) = choose_integrator(world, r.denoise, r.max_bounces, r.seed);
+            let (name, why) = choose_integrator(desc, world, horizon)?;
             (name, Some(why))
         }
         name => (name, None),
@@ -756,7 +751,30 @@ pub fn render_scene(
         }
         // Why `auto` chose what it chose, in the header.
         let mut extra = extra.clone();
-        let (mut integrator, why) = build_integrator(desc, &world)?;
+        // A render that resumes goes on with the integrator its state
+        // was made with (`auto` measures again only for a fresh start).
+        let resumed_with = (r.resume && r.integrator == AUTO_INTEGRATOR)
+            .then(|| resume::integrator_of(&state_path))
+            .flatten()
+            .and_then(|name| integrator::find(&name));
+        let choosing = Instant::now();
+        let (mut integrator, why) = match resumed_with {
+            Some(reg) => (
+                (reg.build)(desc, &world)?,
+                Some(format!(
+                    "{}, as chosen when this render started (resumed)",
+                    reg.name
+                )),
+            ),
+            None => {
+                let horizon = match opts.time_limit {
+                    Some(t) => auto::Horizon::Seconds(t.as_secs_f64()),
+                    None => auto::Horizon::Passes(r.spp.max(1)),
+                };
+                build_integrator(desc, &world, horizon)?
+            }
+        };
+        let chose = why.is_some() && resumed_with.is_none();
         if let Some(why) = why {
             extra.push(("vdbphoton/auto".into(), why));
         }
@@ -779,7 +797,9 @@ pub fn render_scene(
             }
         }
         let per_pass = integrator.samples_per_pass().max(1);
+        // `auto`'s pilots spend part of a time budget.
         let stop = match opts.time_limit {
+            Some(t) if chose => Stop::Time(t.saturating_sub(choosing.elapsed())),
             Some(t) => Stop::Time(t),
             None => Stop::Passes(r.spp.div_ceil(per_pass).max(1)),
         };

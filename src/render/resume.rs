@@ -353,6 +353,27 @@ fn crash_for_test(passes: u32, w: &mut impl Write) -> std::io::Result<()> {
     Ok(())
 }
 
+/// The integrator the state at `path` was made with, when it is a state
+/// that names one (its header alone is read; [`read`] checks the rest).
+pub fn integrator_of(path: &Path) -> Option<String> {
+    use std::io::BufRead;
+    let file = File::open(path).ok()?;
+    let mut lines = std::io::BufReader::new(file).lines();
+    if lines.next()?.ok()? != MAGIC {
+        return None;
+    }
+    for line in lines.take(64) {
+        let line = line.ok()?;
+        if line.is_empty() {
+            break;
+        }
+        if let Some(name) = line.strip_prefix("integrator=") {
+            return Some(name.to_string());
+        }
+    }
+    None
+}
+
 /// Reads the state at `path` when it belongs to the render of identity
 /// `id`, whose empty film is `empty`: `Ok(None)` when there is none,
 /// `Err(why)` when it is not this render's or is damaged.
