@@ -99,9 +99,10 @@ pub fn render(a: RenderArgs, quick_look: bool) -> Result<()> {
     Ok(())
 }
 
-/// The major version of the Blender add-on (tools/blender/vdbphoton_export.py,
-/// `bl_info["version"]`) whose progress stream and options this binary
-/// speaks; the add-on checks the binary's `--version` the other way.
+/// The major version of the Blender add-on (tools/blender/vdbphoton/,
+/// `binary.ADDON_VERSION`, sent as `--addon-version`) whose progress
+/// stream and options this binary speaks; the add-on checks the binary's
+/// `--version` the other way.
 const ADDON_MAJOR: u32 = 1;
 
 /// Refuses to render for an add-on of another major version.
@@ -114,7 +115,7 @@ fn check_addon(version: &str) -> Result<()> {
         return Ok(());
     }
     Err(Error::Argument(format!(
-        "the Blender add-on is version {version}; this vdbphoton ({}) speaks to add-on {ADDON_MAJOR}.x: install the add-on that comes with this binary (tools/blender/vdbphoton_export.py)",
+        "the Blender add-on is version {version}; this vdbphoton ({}) speaks to add-on {ADDON_MAJOR}.x: install the add-on that comes with this binary (the extension tools/blender/build_extension.py builds)",
         env!("CARGO_PKG_VERSION")
     )))
 }
