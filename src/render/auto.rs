@@ -47,6 +47,10 @@ pub const MIN_PILOT_TILES: usize = 6;
 /// The share of the render's horizon the pilots spend together.
 pub const PILOT_SHARE: f64 = 0.04;
 
+/// The longest the pilots measure (a long render's 4 % would be minutes
+/// without a word of progress, and the estimates are steady long before).
+pub const MAX_PILOT_SECONDS: f64 = 20.0;
+
 /// The share of a short render's horizon after which the pilots stop at
 /// two passes each (a frame of few passes whose photon passes are dear).
 pub const MAX_PILOT_SHARE: f64 = 0.15;
@@ -233,9 +237,12 @@ pub fn measure(
         let spent = t0.elapsed().as_secs_f64();
         // Enough measured; or a short render whose pilots would cost too
         // large a share of it (two passes each then: the error, without
-        // its fall, taken as 1/n).
-        if passes >= MIN_PILOT_PASSES && spent >= PILOT_SHARE * horizon_seconds
+        // its fall, taken as 1/n); or a stop asked (the render that
+        // follows stops at once).
+        let share = PILOT_SHARE * horizon_seconds;
+        if passes >= MIN_PILOT_PASSES && spent >= share.min(MAX_PILOT_SECONDS)
             || spent >= MAX_PILOT_SHARE * horizon_seconds
+            || crate::interrupt::abandon()
         {
             break;
         }
