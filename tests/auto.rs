@@ -183,6 +183,29 @@ fn pilots_estimate_their_error_from_their_halves() {
     assert!((p / by_hand - 1.0).abs() < 1e-9, "{p} against {by_hand}");
 }
 
+/// The pilots' pixels are an even lattice: one in eight of each row, the
+/// columns cycling row by row, so every column and every row is sampled
+/// alike.
+#[test]
+fn pilot_pixels_cover_the_frame_evenly() {
+    use vdbphoton::render::auto::{pilot_pixels, PILOT_STRIDE};
+    let (w, h) = (160u32, 120u32);
+    let p = pilot_pixels(w, h);
+    assert_eq!(p.len() as u32, w * h / PILOT_STRIDE);
+    let mut columns = vec![0u32; w as usize];
+    let mut rows = vec![0u32; h as usize];
+    for &(x, y) in &p {
+        assert!(x < w && y < h);
+        columns[x as usize] += 1;
+        rows[y as usize] += 1;
+    }
+    assert!(rows.iter().all(|&n| n == w / PILOT_STRIDE), "{rows:?}");
+    assert!(
+        columns.iter().all(|&n| n == h / PILOT_STRIDE),
+        "{columns:?}"
+    );
+}
+
 /// The choice is the lower predicted error at the horizon, whatever the
 /// order, and the header line gives each candidate's figures.
 #[test]
