@@ -333,6 +333,21 @@ fn a_holdout_cuts_an_exact_hole() {
     }
 }
 
+/// A slab over half the ground (x < 0, z from 1 to 2) and a 40 x 40
+/// ground at z = 0: `slab.vdb` and `ground.ply` in `d`.
+fn write_slab_over_ground(d: &Path) {
+    write_slab(&d.join("slab.vdb"), -4.0, 0.0, 1.0);
+    write_ply(
+        &d.join("ground.ply"),
+        &quad([
+            Vec3::new(-20.0, -20.0, 0.0),
+            Vec3::new(20.0, -20.0, 0.0),
+            Vec3::new(20.0, 20.0, 0.0),
+            Vec3::new(-20.0, 20.0, 0.0),
+        ]),
+    );
+}
+
 /// A shadow catcher under an absorbing slab over half the ground, the sun
 /// 30° from the zenith across the slab's edge: the Shadow Catcher pass is
 /// the slab's transmittance towards the sun, e^(−σa·D/cos 30°), where the
@@ -345,16 +360,7 @@ fn a_holdout_cuts_an_exact_hole() {
 fn a_shadow_catcher_under_a_slab_gives_its_transmittance() {
     let dir = common::tempdir();
     let d = dir.path();
-    write_slab(&d.join("slab.vdb"), -4.0, 0.0, 1.0);
-    write_ply(
-        &d.join("ground.ply"),
-        &quad([
-            Vec3::new(-20.0, -20.0, 0.0),
-            Vec3::new(20.0, -20.0, 0.0),
-            Vec3::new(20.0, 20.0, 0.0),
-            Vec3::new(-20.0, 20.0, 0.0),
-        ]),
-    );
+    write_slab_over_ground(d);
     let sa = 0.7f32;
     let sun = Vec3::new(0.0, 0.5, 3f32.sqrt() / 2.0);
     let w = 24;
@@ -452,16 +458,7 @@ fn glow_irradiance(p: DVec3, lo: DVec3, hi: DVec3, sigma_a: f64, e: f64) -> f64 
 fn a_shadow_catcher_beside_a_glowing_slab_takes_its_light() {
     let dir = common::tempdir();
     let d = dir.path();
-    write_slab(&d.join("slab.vdb"), -4.0, 0.0, 1.0);
-    write_ply(
-        &d.join("ground.ply"),
-        &quad([
-            Vec3::new(-20.0, -20.0, 0.0),
-            Vec3::new(20.0, -20.0, 0.0),
-            Vec3::new(20.0, 20.0, 0.0),
-            Vec3::new(-20.0, 20.0, 0.0),
-        ]),
-    );
+    write_slab_over_ground(d);
     let (sa, e) = (0.7f32, 0.6f32);
     let sun = Vec3::new(0.0, 0.5, 3f32.sqrt() / 2.0);
     let w = 16;
@@ -735,16 +732,7 @@ fn bad_meshes_are_refused_in_one_line() {
 fn tiles_with_meshes_merge_into_the_full_frame() {
     let dir = common::tempdir();
     let d = dir.path();
-    write_slab(&d.join("slab.vdb"), -4.0, 0.0, 1.0);
-    write_ply(
-        &d.join("ground.ply"),
-        &quad([
-            Vec3::new(-20.0, -20.0, 0.0),
-            Vec3::new(20.0, -20.0, 0.0),
-            Vec3::new(20.0, 20.0, 0.0),
-            Vec3::new(-20.0, 20.0, 0.0),
-        ]),
-    );
+    write_slab_over_ground(d);
     write_ply(
         &d.join("ball.ply"),
         &sphere(Vec3::new(0.5, 0.0, 4.0), 0.5, 8, 16),
@@ -893,16 +881,7 @@ fn scenes_without_meshes_render_the_bits_they_did() {
 /// The ground-and-ball scene of [`tiles_with_meshes_merge_into_the_full_frame`]
 /// in `d` (`s.toml`), larger, for renders that take a while.
 fn ground_and_ball(d: &Path) {
-    write_slab(&d.join("slab.vdb"), -4.0, 0.0, 1.0);
-    write_ply(
-        &d.join("ground.ply"),
-        &quad([
-            Vec3::new(-20.0, -20.0, 0.0),
-            Vec3::new(20.0, -20.0, 0.0),
-            Vec3::new(20.0, 20.0, 0.0),
-            Vec3::new(-20.0, 20.0, 0.0),
-        ]),
-    );
+    write_slab_over_ground(d);
     write_ply(
         &d.join("ball.ply"),
         &sphere(Vec3::new(0.5, 0.0, 4.0), 0.5, 8, 16),

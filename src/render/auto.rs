@@ -137,6 +137,13 @@ struct Pilot<'a> {
 }
 
 impl Pilot<'_> {
+    /// The seconds a pass of the whole frame takes: the pass's own work
+    /// (the photon trace) and its camera samples times `scale`, the
+    /// frame's pixels over the pilot's.
+    fn seconds_per_pass(&self, scale: f64) -> f64 {
+        (self.begin_seconds + self.camera_seconds * scale) / self.passes.max(1) as f64
+    }
+
     /// The estimated relative MSE of the mean of the passes so far, from
     /// its halves (an even number of passes).
     fn rel_mse(&self) -> f64 {
@@ -245,12 +252,14 @@ pub fn measure(
         if passes % 2 == 1 {
             continue;
         }
-        let per_pass =
-            |p: &Pilot| (p.begin_seconds + p.camera_seconds * scale) / p.passes.max(1) as f64;
         let horizon_seconds = match horizon {
             Horizon::Seconds(s) => s,
             Horizon::Passes(n) => {
-                n as f64 * pilots.iter().map(per_pass).fold(f64::INFINITY, f64::min)
+                n as f64
+                    * pilots
+                        .iter()
+                        .map(|p| p.seconds_per_pass(scale))
+                        .fold(f64::INFINITY, f64::min)
             }
         };
         let spent = t0.elapsed().as_secs_f64();
@@ -300,8 +309,7 @@ pub fn measure(
                 rel_mse,
                 rel_mse_half: half,
                 exponent,
-                seconds_per_pass: (p.begin_seconds + p.camera_seconds * scale)
-                    / p.passes.max(1) as f64,
+                seconds_per_pass: p.seconds_per_pass(scale),
                 seconds: p.begin_seconds + p.camera_seconds,
             }
         })
